@@ -1,0 +1,78 @@
+"""``make_env``: build any named mtbench setting."""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import torch
+from torchrl.envs import EnvBase
+
+from .metaworld import ALL_TASK_NAMES, MT10, MT50, MetaWorldEnv
+
+# name -> (task list, resample object/goal at every reset?)
+METAWORLD_SETS: dict[str, tuple[tuple[str, ...], bool]] = {
+    "mt10": (MT10, False),
+    "mt10_rand": (MT10, True),
+    "mt50": (MT50, False),
+    "mt50_rand": (MT50, True),
+}
+
+
+def split_envs(num_envs: int, num_tasks: int) -> list[int]:
+    """Split ``num_envs`` over ``num_tasks`` contiguous blocks as MTBench does (first blocks get the remainder):
+    24,576 over MT10 gives ``[2458]*6 + [2457]*4``."""
+    if num_envs < num_tasks:
+        raise ValueError(f"num_envs={num_envs} is smaller than the number of tasks ({num_tasks}); "
+                         "every task needs at least one env")
+    base, rem = divmod(num_envs, num_tasks)
+    return [base + 1] * rem + [base] * (num_tasks - rem)
+
+
+def setting_names() -> list[str]:
+    """Every name ``make_env`` accepts as a string (sets and single tasks)."""
+    return sorted(METAWORLD_SETS) + sorted(ALL_TASK_NAMES)
+
+
+def make_env(
+    name: str | Sequence[str],
+    num_envs: int | Sequence[int] | None = None,
+    device: torch.device | str | None = None,
+    **overrides: Any,
+) -> EnvBase:
+    """Build a batched multi-task env.
+
+    Args:
+        name: a setting (``"mt10"``, ``"mt10_rand"``, ``"mt50"``, ``"mt50_rand"``), one task name (``"reach"``)
+            or a list of task names (its own multi-task setting; ``rand`` defaults to True there).
+        num_envs: total worlds (split evenly, MTBench style) or one count per task. Defaults to 1 per task.
+        device: torch device (default: ``cuda`` if available, else ``cpu``).
+        **overrides: forwarded to :class:`~mtbench.envs.metaworld.MetaWorldEnv` (``seed``, ``rand``,
+            ``reward_scale``, ``episode_length``, ``substeps``, ...).
+    """
+    if device is None:
+        device = "cuda" if torch.cuda.is_available() else "cpu"
+    if isinstance(name, str):
+        if name in METAWORLD_SETS:
+            tasks, rand = METAWORLD_SETS[name]
+            overrides.setdefault("rand", rand)
+            tasks = list(tasks)
+        elif name in ALL_TASK_NAMES:
+            tasks = [name]
+        else:
+            raise ValueError(f"unknown env name {name!r}; valid choices: {setting_names()} or a list of task names")
+    else:
+        tasks = list(name)
+        if not tasks:
+            raise ValueError("the task list is empty")
+        unknown = [t for t in tasks if t not in ALL_TASK_NAMES]
+        if unknown:
+            raise ValueError(f"unknown task names {unknown}; valid choices: {sorted(ALL_TASK_NAMES)}")
+    if num_envs is None:
+        counts = [1] * len(tasks)
+    elif isinstance(num_envs, int):
+        counts = split_envs(num_envs, len(tasks))
+    else:
+        counts = [int(c) for c in num_envs]
+        if len(counts) != len(tasks):
+            raise ValueError(f"{len(counts)} env counts given for {len(tasks)} tasks {tasks}; give one per task")
+    return MetaWorldEnv(tasks, counts, device=device, **overrides)

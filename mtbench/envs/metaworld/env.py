@@ -1,0 +1,287 @@
+"""The batched Meta-World multi-task environment (TorchRL ``EnvBase``) on MuJoCo Warp."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import EnvBase
+
+from ...sim import WarpSim, step_all
+from . import robot
+from .models import compiled_task
+from .task import HAND_HIGH, HAND_LOW, MetaWorldTask, TaskState
+
+STATE_DIM = 39
+ACTION_DIM = 4
+
+
+class MetaWorldEnv(EnvBase):
+    """Meta-World manipulation tasks on a Franka Panda, ``sum(task_counts)`` worlds in contiguous task blocks.
+
+    Each task is its own MuJoCo Warp model (one kinematic tree per batch); on the GPU the blocks step
+    concurrently on separate CUDA streams, each as a captured CUDA graph.
+
+    Observation: Meta-World's 39-d layout ``[tcp(3), gripper_open(1), obj1 pos+quat(7), obj2 pos+quat(7),
+    previous 18-d frame, goal(3)]`` followed by the one-hot task id (``K`` dims). Quaternions are MuJoCo's wxyz.
+    Action: ``[-1, 1]^4``: TCP displacement (``robot.ACTION_SCALE`` m per step at full scale) and gripper effort
+    (+1 closes). Reward (paper-era MTBench): ``success_bonus`` on steps where the task is solved, otherwise the
+    Meta-World v2 dense reward times ``task.dense_scale`` (0.01) times ``reward_scale``. Episodes last
+    ``episode_length`` steps and end by truncation only; the env resets finished worlds itself (TorchRL native
+    autoreset) and returns the first observation of the next episode.
+
+    Args:
+        tasks: task names (see ``mtbench.envs.metaworld.TASKS``).
+        task_counts: worlds per task (contiguous blocks in this order).
+        device: torch device; the physics runs on the matching Warp device.
+        seed: seed of the env's random generator (reset sampling).
+        rand: True: resample object/goal positions at every reset ("-rand" settings). False: each world samples
+            them once and keeps them ("fixed", MTBench's default).
+        reward_scale: multiplier of the dense reward on non-success steps (100 in the paper's runs).
+        episode_length: steps per episode (150).
+        substeps: physics steps per control step (``control dt = substeps * timestep``).
+        random_start_progress: start each world at a random step of its first episode so that resets are spread
+            over time (MTBench's ``init_at_random_progress``); the first, shortened episode of each world is
+            not counted in the episode statistics.
+        nconmax, njmax: contact / constraint buffer sizes per world.
+        use_graph: capture physics as graphs (CUDA graphs on the GPU, Warp CPU graphs on the CPU).
+    """
+
+    _torchrl_native_autoreset = True
+
+    def __init__(
+        self,
+        tasks: Sequence[str],
+        task_counts: Sequence[int],
+        *,
+        device: torch.device | str = "cpu",
+        seed: int = 0,
+        rand: bool = True,
+        reward_scale: float = 100.0,
+        episode_length: int = 150,
+        substeps: int = 5,
+        random_start_progress: bool = True,
+        nconmax: int | None = 64,
+        njmax: int | None = 192,
+        use_graph: bool = True,
+    ) -> None:
+        tasks = list(tasks)
+        counts = [int(c) for c in task_counts]
+        if len(tasks) != len(counts):
+            raise ValueError(f"{len(tasks)} tasks but {len(counts)} task_counts; give one count per task")
+        if any(c < 1 for c in counts):
+            raise ValueError(f"task_counts must all be positive, got {counts}")
+        if len(set(tasks)) != len(tasks):
+            raise ValueError(f"task names must be unique, got {tasks}")
+        if episode_length < 1:
+            raise ValueError(f"episode_length must be positive, got {episode_length}")
+        num_envs = sum(counts)
+        super().__init__(device=device, batch_size=torch.Size([num_envs]))
+        dev = self.device
+        self.task_names = tasks
+        self.task_counts = counts
+        self.num_tasks = len(tasks)
+        self.state_dim = STATE_DIM
+        self.max_episode_steps = episode_length
+        self.rand = rand
+        self.reward_scale = float(reward_scale)
+        self.random_start_progress = random_start_progress
+        self._generator = torch.Generator(device=dev)
+        self._generator.manual_seed(seed)
+        self.blocks: list[tuple[MetaWorldTask, TaskState]] = []
+        self.slices: list[slice] = []
+        start = 0
+        for name, count in zip(tasks, counts):
+            task_cls, mjm = compiled_task(name)
+            sim = WarpSim(mjm, count, dev, substeps=substeps, nconmax=nconmax, njmax=njmax,
+                          batched_fields=("body_pos",), use_graph=use_graph)
+            task = task_cls(mjm)
+            self.blocks.append((task, TaskState(sim=sim, n=count, device=dev)))
+            self.slices.append(slice(start, start + count))
+            start += count
+        self.task_id = torch.repeat_interleave(torch.arange(self.num_tasks, device=dev),
+                                               torch.tensor(counts, device=dev))
+        self._one_hot = torch.nn.functional.one_hot(self.task_id, self.num_tasks).float()
+        hand_offset = torch.tensor([0.0, 0.0, robot.TCP_OFFSET], device=dev)
+        self._mocap_low = torch.tensor(HAND_LOW, device=dev) + hand_offset
+        self._mocap_high = torch.tensor(HAND_HIGH, device=dev) + hand_offset
+        # per-world episode state
+        self._step_count = torch.zeros(num_envs, dtype=torch.long, device=dev)
+        self._ep_return = torch.zeros(num_envs, device=dev)
+        self._ep_success = torch.zeros(num_envs, dtype=torch.bool, device=dev)
+        self._ep_counted = torch.ones(num_envs, dtype=torch.bool, device=dev)
+        self._prev_frame = torch.zeros(num_envs, 18, device=dev)
+        self._reset_vec: list[torch.Tensor | None] = [None] * self.num_tasks
+        self._vec_sampled = torch.zeros(num_envs, dtype=torch.bool, device=dev)
+        self._stats = torch.zeros(5, self.num_tasks, device=dev)  # episodes, success, return, length, unhealthy
+        self._make_specs()
+
+    # ------------------------------------------------------------------ specs
+    def _make_specs(self) -> None:
+        n, dev, k = self.batch_size[0], self.device, self.num_tasks
+        self.observation_spec = Composite(
+            observation=Unbounded(shape=(n, STATE_DIM + k), device=dev),
+            task_id=Categorical(k, shape=(n,), dtype=torch.long, device=dev),
+            shape=(n,),
+            device=dev,
+        )
+        self.action_spec = Bounded(-1.0, 1.0, shape=(n, ACTION_DIM), device=dev)
+        self.reward_spec = Unbounded(shape=(n, 1), device=dev)
+        done = Categorical(2, shape=(n, 1), dtype=torch.bool, device=dev)
+        self.full_done_spec = Composite(done=done.clone(), terminated=done.clone(), truncated=done.clone(),
+                                        shape=(n,), device=dev)
+
+    # ------------------------------------------------------------------ internals
+    def _refresh_kinematic_quantities(self) -> None:
+        for task, s in self.blocks:
+            s.left_pad = s.sim.site_xpos[:, task.left_pad_site]
+            s.right_pad = s.sim.site_xpos[:, task.right_pad_site]
+            s.tcp = 0.5 * (s.left_pad + s.right_pad)
+
+    def _frames(self) -> torch.Tensor:
+        """``[N, 18]`` current frame ``[tcp, gripper_open, object_state]`` of every world."""
+        parts = [torch.cat([s.tcp, s.gripper_distance_apart[:, None], task.object_state(s)], dim=-1)
+                 for task, s in self.blocks]
+        return torch.cat(parts, dim=0)
+
+    def _goals(self) -> torch.Tensor:
+        return torch.cat([s.goal for _, s in self.blocks], dim=0)
+
+    def _observation(self, frame: torch.Tensor) -> torch.Tensor:
+        return torch.cat([frame, self._prev_frame, self._goals(), self._one_hot], dim=-1)
+
+    def _reset_worlds(self, mask: torch.Tensor) -> None:
+        """Reset the worlds in ``mask`` (robot to its home pose, objects/goals resampled or kept)."""
+        for b, ((task, s), sl) in enumerate(zip(self.blocks, self.slices)):
+            m = mask[sl]
+            s.sim.reset(m)
+            new = task.sample(s.n, self._generator, self.device)
+            old = self._reset_vec[b]
+            if old is None:
+                old = new
+            keep = torch.zeros_like(m) if self.rand else self._vec_sampled[sl]
+            vec = torch.where(keep[:, None], old, new)
+            self._reset_vec[b] = torch.where(m[:, None], vec, old)
+            task.reset(s, vec, m)
+            s.sim.kinematics()
+        self._vec_sampled |= mask
+        self._refresh_kinematic_quantities()
+        for (task, s), sl in zip(self.blocks, self.slices):
+            m = mask[sl]
+            s.init_tcp.copy_(torch.where(m[:, None], s.tcp, s.init_tcp))
+            s.init_left_pad.copy_(torch.where(m[:, None], s.left_pad, s.init_left_pad))
+            s.init_right_pad.copy_(torch.where(m[:, None], s.right_pad, s.init_right_pad))
+            task.after_reset(s, m)
+
+    def _apply_action(self, action: torch.Tensor) -> None:
+        action = action.clamp(-1.0, 1.0)
+        for (task, s), sl in zip(self.blocks, self.slices):
+            a = action[sl]
+            mocap = s.sim.mocap_pos[:, 0]
+            target = mocap + a[:, :3] * robot.ACTION_SCALE
+            mocap.copy_(torch.maximum(torch.minimum(target, self._mocap_high), self._mocap_low))
+            s.sim.ctrl[:, 0] = -a[:, 3]  # tendon force: positive opens the fingers; action +1 closes
+
+    def _evaluate(self, action: torch.Tensor, frame: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        obs = self._observation(frame)
+        rewards, successes = [], []
+        for (task, s), sl in zip(self.blocks, self.slices):
+            dense, success = task.evaluate(s, action[sl], obs[sl])
+            scaled = dense * task.dense_scale * self.reward_scale
+            rewards.append(torch.where(success, torch.full_like(scaled, task.success_bonus), scaled))
+            successes.append(success)
+        return torch.cat(rewards), torch.cat(successes)
+
+    # ------------------------------------------------------------------ EnvBase API
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        action = tensordict.get("action")
+        self._apply_action(action)
+        step_all([s.sim for _, s in self.blocks])
+        self._refresh_kinematic_quantities()
+        frame = self._frames()
+        reward, success = self._evaluate(action.clamp(-1.0, 1.0), frame)
+        unhealthy = torch.cat([s.sim.unhealthy() for _, s in self.blocks])
+        reward = torch.where(torch.isfinite(reward) & ~unhealthy, reward, torch.zeros_like(reward))
+        self._step_count += 1
+        self._ep_return += reward
+        self._ep_success |= success & ~unhealthy
+        truncated = (self._step_count >= self.max_episode_steps) | unhealthy
+        self._accumulate_stats(truncated, unhealthy)
+        # native autoreset: finished worlds start their next episode now; no host sync, all rows computed
+        self._reset_worlds(truncated)
+        reset_frame = self._frames()
+        frame = torch.where(truncated[:, None], reset_frame, frame)
+        # Meta-World: the previous frame of an episode's first observation is that frame itself
+        self._prev_frame = torch.where(truncated[:, None], reset_frame, self._prev_frame)
+        obs = self._observation(frame)
+        self._prev_frame = frame
+        self._begin_episode(truncated)
+        return TensorDict(
+            {
+                "observation": obs,
+                "task_id": self.task_id,
+                "reward": reward[:, None],
+                "done": truncated[:, None].clone(),
+                "terminated": torch.zeros_like(truncated)[:, None],
+                "truncated": truncated[:, None].clone(),
+            },
+            batch_size=self.batch_size,
+            device=self.device,
+        )
+
+    def _accumulate_stats(self, done: torch.Tensor, unhealthy: torch.Tensor) -> None:
+        counted = (done & self._ep_counted).float()
+        rows = torch.stack([counted, counted * self._ep_success.float(), counted * self._ep_return,
+                            counted * self._step_count.float(), unhealthy.float()])
+        self._stats.index_add_(1, self.task_id, rows)
+
+    def _begin_episode(self, mask: torch.Tensor) -> None:
+        self._step_count = torch.where(mask, torch.zeros_like(self._step_count), self._step_count)
+        self._ep_return = torch.where(mask, torch.zeros_like(self._ep_return), self._ep_return)
+        self._ep_success = self._ep_success & ~mask
+        self._ep_counted = self._ep_counted | mask
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
+        n = self.batch_size[0]
+        mask = torch.ones(n, dtype=torch.bool, device=self.device)
+        if tensordict is not None and "_reset" in tensordict.keys():
+            mask = tensordict.get("_reset").reshape(n).to(self.device)
+        self._reset_worlds(mask)
+        frame = self._frames()
+        self._prev_frame = torch.where(mask[:, None], frame, self._prev_frame)
+        obs = self._observation(frame)
+        self._prev_frame = frame
+        self._begin_episode(mask)
+        if self.random_start_progress:
+            start = torch.randint(0, self.max_episode_steps, (n,), generator=self._generator, device=self.device)
+            self._step_count = torch.where(mask, start, self._step_count)
+            self._ep_counted = self._ep_counted & ~(mask & (start > 0))
+        return TensorDict(
+            {
+                "observation": obs,
+                "task_id": self.task_id.clone(),
+                "done": torch.zeros(n, 1, dtype=torch.bool, device=self.device),
+                "terminated": torch.zeros(n, 1, dtype=torch.bool, device=self.device),
+                "truncated": torch.zeros(n, 1, dtype=torch.bool, device=self.device),
+            },
+            batch_size=self.batch_size,
+            device=self.device,
+        )
+
+    def _set_seed(self, seed: int | None) -> None:
+        self._generator.manual_seed(0 if seed is None else int(seed))
+
+    # ------------------------------------------------------------------ statistics
+    def pop_episode_stats(self) -> TensorDict:
+        """Per-task sums over the episodes finished since the last call (``[K]`` tensors, on the env device):
+        ``episodes``, ``success`` (episodes with success at any step), ``return``, ``length``, and
+        ``unhealthy`` (worlds reset because of NaN / runaway state / buffer overflow)."""
+        stats = self._stats.clone()
+        self._stats.zero_()
+        return TensorDict(
+            {"episodes": stats[0], "success": stats[1], "return": stats[2], "length": stats[3],
+             "unhealthy": stats[4]},
+            batch_size=[self.num_tasks],
+        )

@@ -1,0 +1,18 @@
+"""Compile each task's MuJoCo model once per process (shared by every env that uses the task)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import mujoco
+
+from .registry import task_class
+from .scene import build_scene
+from .task import MetaWorldTask
+
+
+@lru_cache(maxsize=None)
+def compiled_task(name: str) -> tuple[type[MetaWorldTask], mujoco.MjModel]:
+    """``(task class, compiled MjModel)`` for the task ``name``."""
+    cls = task_class(name)
+    return cls, build_scene(cls.scene)

@@ -1,0 +1,81 @@
+"""The Franka Panda (MuJoCo Menagerie) as the Meta-World manipulator, driven by a mocap weld.
+
+Controller choice: like Meta-World (and unlike the original MTBench, which ran damped-least-squares IK into
+joint position targets), the hand is welded to a mocap body. An action moves the mocap target by
+``action[:3] * ACTION_SCALE`` metres per control step (clipped to the task's hand workspace) with the hand
+orientation held pointing down; the arm joints are passive (gravity-compensated, damped) and follow the weld.
+Why: the weld gives every task the same well-conditioned Cartesian response at any arm configuration (no IK
+singularities or joint-limit clamping inside the control loop), needs no per-step Jacobian solve in torch, and
+keeps the physics of contacts between the hand and objects intact (the weld is a soft constraint solved with the
+contacts). The gripper is a force actuator on the finger tendon: ``action[3] = +1`` closes the fingers with
+``GRIPPER_FORCE`` newtons, ``-1`` opens them. This is Meta-World's convention, so the caging reward's
+``clip(action[3], 0, 1)`` "gripper closed" term and the physics agree (the original MTBench had them inverted).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from ...assets import menagerie_dir
+
+ACTION_SCALE = 0.01  # metres of end-effector displacement per control step at |action| = 1
+GRIPPER_FORCE = 60.0  # newtons on the finger tendon at |action[3]| = 1
+PREFIX = "panda/"
+HAND = PREFIX + "hand"
+LEFT_PAD = PREFIX + "leftpad"
+RIGHT_PAD = PREFIX + "rightpad"
+# Hand pointing down (hand z -> world -z) with the fingers opening along world y, as Meta-World's pads do.
+HAND_DOWN_QUAT = np.array([0.0, 0.0, 1.0, 0.0])
+# TCP (midpoint of the finger pads) relative to the hand frame origin, along the hand z axis.
+TCP_OFFSET = 0.1034
+ARM_JOINTS = tuple(f"{PREFIX}joint{i}" for i in range(1, 8))
+FINGER_JOINTS = (PREFIX + "finger_joint1", PREFIX + "finger_joint2")
+# A comfortable elbow-up configuration used as the starting point when solving the initial arm pose.
+READY_QPOS = np.array([0.0, 0.3, 0.0, -2.2, 0.0, 2.5, 0.785, 0.04, 0.04])
+# Collision filtering: robot geoms collide with the world/objects (conaffinity 1) but not with each other.
+ROBOT_CONTYPE, ROBOT_CONAFFINITY = 1, 0
+
+
+def panda_spec() -> mujoco.MjSpec:
+    """Menagerie Panda prepared for mocap control: no arm actuators, gravity compensation, pad sites,
+    a tendon force actuator for the gripper and no robot self-collisions."""
+    spec = mujoco.MjSpec.from_file(str(menagerie_dir("franka_emika_panda") / "panda.xml"))
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER  # implicitfast is not supported by MuJoCo Warp
+    for act in list(spec.actuators):
+        spec.delete(act)
+    for light in list(spec.lights):
+        spec.delete(light)
+    for key in list(spec.keys):
+        spec.delete(key)
+    for body in spec.bodies:
+        if body.name:
+            body.gravcomp = 1.0
+    for geom in spec.geoms:
+        if geom.contype or geom.conaffinity:
+            geom.contype = ROBOT_CONTYPE
+            geom.conaffinity = ROBOT_CONAFFINITY
+            geom.condim = 4 if "finger" in (geom.parent.name or "") else geom.condim
+            if "finger" in (geom.parent.name or ""):
+                geom.friction = [2.0, 0.1, 0.002]
+    for name in ("left_finger", "right_finger"):
+        finger = spec.body(name)
+        finger.add_site(name="leftpad" if name == "left_finger" else "rightpad", pos=[0.0, 0.0055, 0.0445],
+                        size=[0.005, 0.005, 0.005], rgba=[0, 1, 0, 0.3], group=4)
+    spec.body("hand").add_site(name="tcp", pos=[0.0, 0.0, TCP_OFFSET], size=[0.005, 0.005, 0.005], group=4)
+    # joint damping keeps the passive arm well behaved while the weld drags it
+    for j in spec.joints:
+        if j.type == mujoco.mjtJoint.mjJNT_HINGE:
+            j.damping = [10.0, 0.0, 0.0]
+            j.armature = 0.1
+    spec.add_actuator(
+        name="gripper",
+        target="split",
+        trntype=mujoco.mjtTrn.mjTRN_TENDON,
+        gaintype=mujoco.mjtGain.mjGAIN_FIXED,
+        gainprm=[GRIPPER_FORCE] + [0.0] * 9,
+        biastype=mujoco.mjtBias.mjBIAS_NONE,
+        ctrlrange=[-1.0, 1.0],
+        ctrllimited=True,
+    )
+    return spec

@@ -1,0 +1,91 @@
+"""Build one Meta-World task scene: the task's own MJCF (table, objects, fixtures) with the Sawyer removed and
+the Menagerie Panda attached, driven through a mocap weld. Pure MuJoCo (``MjSpec``), compiled once per task."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ...assets import metaworld_assets_dir
+from . import robot
+
+# Panda base on the table, facing +y (Meta-World's forward axis). Chosen so that the hand workspace of every task
+# (y in [0.4, 0.95], z in [0.0, 0.3] above the table) is reachable with the hand pointing down.
+ROBOT_BASE_POS = np.array([0.0, 0.15, 0.0])
+ROBOT_BASE_QUAT = np.array([np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)])  # +90 deg about z
+# physics options (Meta-World: dt 2.5 ms, Newton, elliptic cones; MuJoCo Warp supports Euler, not implicitfast)
+TIMESTEP = 0.0025
+SOLVER_ITERATIONS = 20
+LS_ITERATIONS = 10
+HOME_KEY = "home"
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """What a task needs from its scene: the Meta-World XML and the initial hand position."""
+
+    xml: str
+    hand_init_pos: tuple[float, float, float] = (0.0, 0.6, 0.2)
+
+
+def _strip_sawyer(spec: mujoco.MjSpec) -> None:
+    spec.delete(spec.body("base"))
+    spec.delete(spec.body("mocap"))
+    for act in list(spec.actuators):
+        spec.delete(act)
+    for eq in list(spec.equalities):
+        spec.delete(eq)
+    # Sawyer meshes are now unreferenced; drop them so they are neither compiled nor uploaded
+    used = {g.meshname for g in spec.geoms if g.type == mujoco.mjtGeom.mjGEOM_MESH}
+    for mesh in list(spec.meshes):
+        if mesh.name not in used:
+            spec.delete(mesh)
+    # the near retaining wall would sit inside the robot base
+    wall = spec.body("RetainingWall")
+    for geom in list(wall.geoms):
+        if geom.pos[1] < -0.3:
+            spec.delete(geom)
+
+
+def build_scene(scene: SceneSpec) -> mujoco.MjModel:
+    """Compile the task scene with the Panda at ``ROBOT_BASE_POS`` and the arm settled so that the TCP is at
+    ``scene.hand_init_pos`` (stored as the ``home`` keyframe, with the mocap body at the matching hand pose)."""
+    spec = mujoco.MjSpec.from_file(str(metaworld_assets_dir() / "sawyer_xyz" / scene.xml))
+    _strip_sawyer(spec)
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    spec.option.timestep = TIMESTEP
+    spec.option.iterations = SOLVER_ITERATIONS
+    spec.option.ls_iterations = LS_ITERATIONS
+    spec.option.tolerance = 1e-6
+    frame = spec.worldbody.add_frame(pos=ROBOT_BASE_POS, quat=ROBOT_BASE_QUAT)
+    frame.attach_body(robot.panda_spec().body("link0"), robot.PREFIX, "")
+    hand_pos = np.asarray(scene.hand_init_pos) + np.array([0.0, 0.0, robot.TCP_OFFSET])
+    spec.worldbody.add_body(name="mocap", mocap=True, pos=hand_pos, quat=robot.HAND_DOWN_QUAT)
+    spec.add_equality(
+        type=mujoco.mjtEq.mjEQ_WELD,
+        name1="mocap",
+        name2=robot.HAND,
+        objtype=mujoco.mjtObj.mjOBJ_BODY,
+        data=[0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 1] + [0.0],
+        solref=[0.02, 1.0],
+    )
+    spec.add_key(name=HOME_KEY, qpos=np.zeros(0), mpos=hand_pos, mquat=robot.HAND_DOWN_QUAT)
+    model = spec.compile()
+    _settle_initial_pose(model)
+    return model
+
+
+def _settle_initial_pose(model: mujoco.MjModel, seconds: float = 2.0) -> None:
+    """Let the weld pull the arm from ``READY_QPOS`` to the mocap target; store the settled configuration in the
+    ``home`` keyframe (``qpos0`` must stay the reference configuration the bodies were defined in)."""
+    data = mujoco.MjData(model)
+    arm = [model.joint(n).qposadr[0] for n in robot.ARM_JOINTS + robot.FINGER_JOINTS]
+    data.qpos[arm] = robot.READY_QPOS
+    mujoco.mj_forward(model, data)
+    for _ in range(int(seconds / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    key = model.key(HOME_KEY)
+    key.qpos[:] = model.qpos0
+    key.qpos[arm] = data.qpos[arm]

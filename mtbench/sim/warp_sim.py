@@ -1,0 +1,250 @@
+"""One compiled MuJoCo model simulated for many worlds with MuJoCo Warp, exposed as zero-copy torch tensors.
+
+This layer knows physics only: it owns ``mjw.Model``/``mjw.Data`` for a block of ``nworld`` identical-topology
+worlds, steps them (captured as a CUDA graph on the GPU, as a Warp CPU graph on the CPU), resets a masked subset
+of worlds to a keyframe, recomputes kinematics, and reports worlds whose state is not finite or whose contact /
+constraint buffers overflowed. Nothing here knows about tasks, rewards or observations.
+"""
+
+from __future__ import annotations
+
+import gc
+from typing import Sequence
+
+import mujoco
+import mujoco_warp as mjw
+import numpy as np
+import torch
+import warp as wp
+
+_WARP_INITIALIZED = False
+
+
+def _init_warp() -> None:
+    global _WARP_INITIALIZED
+    if not _WARP_INITIALIZED:
+        wp.config.quiet = True
+        wp.init()
+        _WARP_INITIALIZED = True
+
+
+def warp_device(device: torch.device | str) -> str:
+    """Warp device string for a torch device (``cpu`` or ``cuda:<i>``); raises if it is not available."""
+    device = torch.device(device)
+    _init_warp()
+    if device.type == "cpu":
+        return "cpu"
+    if device.type == "cuda":
+        if not torch.cuda.is_available():
+            raise RuntimeError(f"device {device} requested but CUDA is not available; valid choices: ['cpu']")
+        index = torch.cuda.current_device() if device.index is None else device.index
+        if index >= torch.cuda.device_count():
+            raise RuntimeError(f"device {device} does not exist; {torch.cuda.device_count()} CUDA device(s) found")
+        return f"cuda:{index}"
+    raise ValueError(f"unsupported device {device}; valid choices: ['cpu', 'cuda[:i]']")
+
+
+class WarpSim:
+    """``nworld`` worlds of one MuJoCo model on a Warp device.
+
+    Args:
+        mjm: compiled MuJoCo model. If it has keyframes, ``reset`` uses keyframe ``reset_key``.
+        nworld: number of worlds.
+        device: torch device (``cpu`` or ``cuda[:i]``); Warp runs on the matching device.
+        substeps: physics steps per call of :meth:`step`.
+        nconmax: contacts per world (pooled across worlds); njmax: constraint rows per world (hard limit).
+        batched_fields: model fields given one copy per world (e.g. ``("body_pos",)``), writable through
+            :meth:`model_field`.
+        use_graph: capture step/reset/kinematics as graphs (CUDA graphs on GPU; Warp CPU graphs on CPU).
+        reset_key: keyframe index used by :meth:`reset` (ignored when the model has no keyframe).
+    """
+
+    def __init__(
+        self,
+        mjm: mujoco.MjModel,
+        nworld: int,
+        device: torch.device | str = "cpu",
+        *,
+        substeps: int = 1,
+        nconmax: int | None = None,
+        njmax: int | None = None,
+        batched_fields: Sequence[str] = (),
+        use_graph: bool = True,
+        reset_key: int = 0,
+    ) -> None:
+        if nworld < 1:
+            raise ValueError(f"nworld must be positive, got {nworld}")
+        if substeps < 1:
+            raise ValueError(f"substeps must be positive, got {substeps}")
+        self.mjm = mjm
+        self.nworld = nworld
+        self.substeps = substeps
+        self.device = torch.device(device)
+        self.wp_device = warp_device(self.device)
+        if self.device.type == "cuda" and self.device.index is None:
+            self.device = torch.device(self.wp_device)
+        self.use_graph = use_graph
+        self._has_key = mjm.nkey > 0
+        if self._has_key and not 0 <= reset_key < mjm.nkey:
+            raise ValueError(f"reset_key {reset_key} out of range for a model with {mjm.nkey} keyframes")
+        data0 = mujoco.MjData(mjm)
+        if self._has_key:
+            mujoco.mj_resetDataKeyframe(mjm, data0, reset_key)
+        mujoco.mj_forward(mjm, data0)
+        with wp.ScopedDevice(self.wp_device):
+            batch = {name: nworld for name in batched_fields} or None
+            self.model = mjw.put_model(mjm, batch_sizes=batch)
+            self.data = mjw.put_data(mjm, data0, nworld=nworld, nconmax=nconmax, njmax=njmax)
+            self._key_ids = wp.full(nworld, -1, dtype=int)
+        self.stream: torch.cuda.Stream | None = None
+        self._wp_stream = None
+        if self.device.type == "cuda":
+            self.stream = torch.cuda.Stream(device=self.device)
+            self._wp_stream = wp.stream_from_torch(self.stream)
+        self._key_ids_t = wp.to_torch(self._key_ids)
+        d = self.data
+        # zero-copy torch views of the state (writes go straight to the simulator)
+        self.qpos = wp.to_torch(d.qpos)
+        self.qvel = wp.to_torch(d.qvel)
+        self.ctrl = wp.to_torch(d.ctrl)
+        self.mocap_pos = wp.to_torch(d.mocap_pos)
+        self.mocap_quat = wp.to_torch(d.mocap_quat)
+        self.xpos = wp.to_torch(d.xpos)
+        self.xquat = wp.to_torch(d.xquat)
+        self.site_xpos = wp.to_torch(d.site_xpos)
+        self.time = wp.to_torch(d.time)
+        self._overflow = wp.to_torch(d.overflow)
+        self._graphs: dict[str, object] = {}
+        if use_graph:
+            self._capture()
+
+    # ---------------------------------------------------------------- model fields
+    def model_field(self, name: str) -> torch.Tensor:
+        """Zero-copy torch view of a model field (shape ``(nworld, ...)`` if it was batched, else ``(1, ...)``)."""
+        return wp.to_torch(getattr(self.model, name))
+
+    # ---------------------------------------------------------------- graphs
+    def _step_impl(self) -> None:
+        for _ in range(self.substeps):
+            mjw.step(self.model, self.data)
+        mjw.kinematics(self.model, self.data)
+
+    def _reset_impl(self) -> None:
+        mjw.reset_data_keyframe(self.model, self.data, self._key_ids) if self._has_key else mjw.reset_data(
+            self.model, self.data, reset=self._reset_mask
+        )
+
+    def _kinematics_impl(self) -> None:
+        mjw.kinematics(self.model, self.data)
+
+    def _capture(self) -> None:
+        if not self._has_key:
+            self._reset_mask = wp.zeros(self.nworld, dtype=bool, device=self.wp_device)
+        # warm-up (compiles the kernels) before capture, then capture with the GC off (see mjlab/mujoco_warp notes)
+        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._wp_stream) if self._wp_stream else _null():
+            self._kinematics_impl()
+            gc_was_enabled = gc.isenabled()
+            gc.disable()
+            try:
+                for name, fn in (("step", self._step_impl), ("reset", self._reset_impl), ("kin", self._kinematics_impl)):
+                    with wp.ScopedCapture(device=self.wp_device, stream=self._wp_stream) as cap:
+                        fn()
+                    self._graphs[name] = cap.graph
+            finally:
+                if gc_was_enabled:
+                    gc.enable()
+
+    def _run(self, name: str, fn) -> None:
+        if self.use_graph:
+            wp.capture_launch(self._graphs[name], stream=self._wp_stream)
+        else:
+            with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._wp_stream) if self._wp_stream else _null():
+                fn()
+
+    # ---------------------------------------------------------------- public API
+    def launch_step(self) -> None:
+        """Enqueue ``substeps`` physics steps followed by kinematics (asynchronous on the GPU)."""
+        self._run("step", self._step_impl)
+
+    def step(self) -> None:
+        """``substeps`` physics steps then kinematics, ordered after the current torch stream's work."""
+        with self._on_own_stream():
+            self.launch_step()
+
+    def reset(self, mask: torch.Tensor) -> None:
+        """Reset the worlds where ``mask`` (bool ``[nworld]``) is true to the keyframe (or ``qpos0``).
+
+        No host synchronisation: the mask is copied into a persistent device array read by a captured graph.
+        """
+        with self._on_own_stream():
+            if self._has_key:
+                self._key_ids_t.copy_(torch.where(mask, 0, -1).to(self._key_ids_t.dtype))
+            else:
+                wp.to_torch(self._reset_mask).copy_(mask)
+            self._run("reset", self._reset_impl)
+            self._overflow.masked_fill_(mask, 0)
+
+    def kinematics(self) -> None:
+        """Recompute positions/orientations of bodies and sites from ``qpos`` (after writing the state)."""
+        with self._on_own_stream():
+            self._run("kin", self._kinematics_impl)
+
+    def unhealthy(self, max_abs_qvel: float = 1e4) -> torch.Tensor:
+        """Bool ``[nworld]``: non-finite state, runaway velocities, or contact/constraint buffer overflow."""
+        bad = ~torch.isfinite(self.qpos).all(-1) | ~torch.isfinite(self.qvel).all(-1)
+        bad |= self.qvel.abs().amax(-1) > max_abs_qvel
+        bad |= self._overflow != 0
+        return bad
+
+    def _on_own_stream(self):
+        if self.stream is None:
+            return _null()
+        return _StreamJoin(self.stream)
+
+
+class _null:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+class _StreamJoin:
+    """Run a block of work on ``stream`` ordered after, and joined back into, the current torch stream."""
+
+    def __init__(self, stream: torch.cuda.Stream) -> None:
+        self.stream = stream
+
+    def __enter__(self):
+        self.main = torch.cuda.current_stream(self.stream.device)
+        self.stream.wait_stream(self.main)
+        self.ctx = torch.cuda.stream(self.stream)
+        self.ctx.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        self.ctx.__exit__(*exc)
+        self.main.wait_stream(self.stream)
+        return False
+
+
+def step_all(sims: Sequence[WarpSim]) -> None:
+    """Step several blocks concurrently: on the GPU each block's graph runs on its own stream."""
+    if not sims:
+        return
+    if sims[0].stream is None:
+        for sim in sims:
+            sim.launch_step()
+        return
+    main = torch.cuda.current_stream(sims[0].device)
+    for sim in sims:
+        sim.stream.wait_stream(main)
+        with torch.cuda.stream(sim.stream):
+            sim.launch_step()
+    for sim in sims:
+        main.wait_stream(sim.stream)
+
+
+def as_numpy(x: torch.Tensor) -> np.ndarray:
+    return x.detach().cpu().numpy()
