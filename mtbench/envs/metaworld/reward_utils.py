@@ -1,0 +1,371 @@
+"""Batched torch ports of the Meta-World v2 reward helpers.
+
+Every function works on tensors with a leading batch (env) dimension: scalars per env have shape ``[N]``,
+points have shape ``[N, 3]`` (any extra leading dims broadcast the same way). Parameters documented as
+"float or tensor" may be Python numbers (validated like Meta-World does) or tensors broadcastable to ``[N]``
+(not validated: checking them would need a host sync).
+
+The hot-path functions never synchronise with the host: no ``.item()``, no ``nonzero()``, no Python ``if`` on
+tensor values; all branching is done with ``torch.where``. They are not meant to be differentiated (the masked
+branches of ``torch.where`` may hold ``inf``/``nan`` values that would poison gradients).
+
+Numerics follow ``metaworld/utils/reward_utils.py`` (metaworld 3.0.0, the "v2" reward functions) and
+``SawyerXYZEnv._gripper_caging_reward``; ``tests/test_reward_utils.py`` checks them against the installed
+package. Behaviour that differs from Meta-World, all in cases where Meta-World raises:
+
+* an unknown ``sigmoid`` name always raises ``ValueError`` (Meta-World only notices it when ``margin != 0``);
+* negative *tensor* margins act like a zero margin (binary in/out); Meta-World raises for a negative margin.
+  In :func:`gripper_caging_reward` this covers the x-z margin ``‖obj_init_xz − init_tcp_xz‖ − xz_thresh``,
+  which is negative when the episode starts with the TCP already within ``xz_thresh`` of the object.
+"""
+
+from __future__ import annotations
+
+import math
+from numbers import Real
+from typing import Literal, Union
+
+import torch
+from torch import Tensor
+
+__all__ = [
+    "SIGMOIDS",
+    "above_floor_funnel",
+    "check_unit_interval",
+    "gripper_caging_reward",
+    "hamacher_product",
+    "hamacher_product_checked",
+    "rect_prism_tolerance",
+    "sigmoids",
+    "tolerance",
+]
+
+SigmoidType = Literal[
+    "gaussian", "hyperbolic", "long_tail", "reciprocal", "cosine", "linear", "quadratic", "tanh_squared"
+]
+SIGMOIDS: tuple[str, ...] = (
+    "gaussian",
+    "hyperbolic",
+    "long_tail",
+    "reciprocal",
+    "cosine",
+    "linear",
+    "quadratic",
+    "tanh_squared",
+)
+# Sigmoids that accept value_at_1 == 0 (they reach exactly 0 at a finite distance).
+_ZERO_OK_SIGMOIDS = ("cosine", "linear", "quadratic")
+_DEFAULT_VALUE_AT_MARGIN = 0.1
+
+ScalarOrTensor = Union[Tensor, float]
+
+
+def _as_float_tensor(x: ScalarOrTensor | int) -> Tensor:
+    """Returns ``x`` as a floating tensor (a Python number becomes a 0-d CPU tensor of the default dtype)."""
+    if isinstance(x, Tensor):
+        return x if x.is_floating_point() else x.to(torch.get_default_dtype())
+    return torch.as_tensor(x, dtype=torch.get_default_dtype())
+
+
+def _check_sigmoid_name(sigmoid: str) -> None:
+    if sigmoid not in SIGMOIDS:
+        raise ValueError(f"Unknown sigmoid type {sigmoid!r}; valid choices are {list(SIGMOIDS)}.")
+
+
+def _sigmoid_scale(sigmoid: str, value_at_1: float) -> float:
+    """Validates ``value_at_1`` for ``sigmoid`` (as Meta-World does); returns the x-scale giving σ(1) = value_at_1."""
+    _check_sigmoid_name(sigmoid)
+    if sigmoid in _ZERO_OK_SIGMOIDS:
+        if not 0 <= value_at_1 < 1:
+            raise ValueError(
+                f"`value_at_margin` (value_at_1) must be nonnegative and smaller than 1 for the {sigmoid!r} "
+                f"sigmoid, got {value_at_1}."
+            )
+    elif not 0 < value_at_1 < 1:
+        raise ValueError(
+            f"`value_at_margin` (value_at_1) must be strictly between 0 and 1 for the {sigmoid!r} sigmoid, "
+            f"got {value_at_1}."
+        )
+    if sigmoid == "gaussian":
+        return math.sqrt(-2.0 * math.log(value_at_1))
+    if sigmoid == "hyperbolic":
+        return math.acosh(1.0 / value_at_1)
+    if sigmoid == "long_tail":
+        return math.sqrt(1.0 / value_at_1 - 1.0)
+    if sigmoid == "reciprocal":
+        return 1.0 / value_at_1 - 1.0
+    if sigmoid == "cosine":
+        return math.acos(2.0 * value_at_1 - 1.0) / math.pi
+    if sigmoid == "linear":
+        return 1.0 - value_at_1
+    if sigmoid == "quadratic":
+        return math.sqrt(1.0 - value_at_1)
+    # tanh_squared
+    return math.atanh(math.sqrt(1.0 - value_at_1))
+
+
+def _apply_sigmoid(x: Tensor, scale: float, sigmoid: str) -> Tensor:
+    scaled = x * scale
+    if sigmoid == "gaussian":
+        return torch.exp(-0.5 * scaled * scaled)
+    if sigmoid == "hyperbolic":
+        return 1.0 / torch.cosh(scaled)  # cosh overflows to inf for large |x| -> exactly 0, as in float64
+    if sigmoid == "long_tail":
+        return 1.0 / (scaled * scaled + 1.0)
+    if sigmoid == "reciprocal":
+        return 1.0 / (scaled.abs() + 1.0)
+    if sigmoid == "cosine":
+        return torch.where(scaled.abs() < 1.0, (1.0 + torch.cos(math.pi * scaled)) / 2.0, 0.0)
+    if sigmoid == "linear":
+        # Like Meta-World: 1 - scaled (not |scaled|), so negative inputs give values > 1.
+        return torch.where(scaled.abs() < 1.0, 1.0 - scaled, 0.0)
+    if sigmoid == "quadratic":
+        return torch.where(scaled.abs() < 1.0, 1.0 - scaled * scaled, 0.0)
+    t = torch.tanh(scaled)  # tanh_squared
+    return 1.0 - t * t
+
+
+def sigmoids(x: Tensor, value_at_1: float, sigmoid: SigmoidType) -> Tensor:
+    """Maps ``x`` to (0, 1] with the named sigmoid: 1 at ``x == 0``, ``value_at_1`` at ``|x| == 1``.
+
+    Port of Meta-World's ``_sigmoids``; raises ``ValueError`` for an unknown ``sigmoid`` or an invalid
+    ``value_at_1`` (``0 < v < 1``; ``0 <= v < 1`` for cosine, linear and quadratic).
+    """
+    scale = _sigmoid_scale(sigmoid, float(value_at_1))
+    return _apply_sigmoid(_as_float_tensor(x), scale, sigmoid)
+
+
+def tolerance(
+    x: Tensor,
+    bounds: tuple[ScalarOrTensor, ScalarOrTensor] = (0.0, 0.0),
+    margin: ScalarOrTensor = 0.0,
+    sigmoid: SigmoidType = "gaussian",
+    value_at_margin: float = _DEFAULT_VALUE_AT_MARGIN,
+) -> Tensor:
+    """1 where ``x`` lies in the inclusive ``bounds``, decaying sigmoidally with the distance outside them.
+
+    Args:
+        x: values, any shape.
+        bounds: ``(lower, upper)``, floats (may be infinite) or tensors broadcastable to ``x``.
+        margin: float or tensor broadcastable to ``x``. Outside the bounds the value is
+            ``sigmoid(distance_to_nearest_bound / margin)``, which equals ``value_at_margin`` at distance
+            ``margin``. Where the margin is 0 the result is binary (1 inside, 0 outside); negative tensor
+            margins are treated like 0.
+        sigmoid: one of :data:`SIGMOIDS`.
+        value_at_margin: in (0, 1) (or [0, 1) for cosine/linear/quadratic). Like Meta-World, it is not
+            validated when ``margin`` is the Python number 0.
+
+    Returns:
+        Tensor with ``x``'s broadcast shape and floating dtype.
+
+    Raises:
+        ValueError: for an unknown sigmoid, Python-number bounds with ``lower > upper``, a negative
+        Python-number margin, or an invalid ``value_at_margin``.
+    """
+    _check_sigmoid_name(sigmoid)
+    lower, upper = bounds
+    if isinstance(lower, Real) and isinstance(upper, Real) and lower > upper:
+        raise ValueError(f"Lower bound must be <= upper bound, got bounds=({lower}, {upper}).")
+    x = _as_float_tensor(x)
+    in_bounds = (x >= lower) & (x <= upper)
+    if isinstance(margin, Real):
+        if margin < 0:
+            raise ValueError(f"`margin` must be non-negative. Current value: {margin}")
+        if margin == 0:
+            return in_bounds.to(x.dtype)
+        scale = _sigmoid_scale(sigmoid, float(value_at_margin))
+        d = torch.where(x < lower, lower - x, x - upper) / float(margin)
+        return torch.where(in_bounds, 1.0, _apply_sigmoid(d, scale, sigmoid))
+    scale = _sigmoid_scale(sigmoid, float(value_at_margin))
+    margin = _as_float_tensor(margin)
+    positive = margin > 0
+    d = torch.where(x < lower, lower - x, x - upper) / torch.where(positive, margin, 1.0)
+    outside = torch.where(positive, _apply_sigmoid(d, scale, sigmoid), 0.0)
+    return torch.where(in_bounds, 1.0, outside)
+
+
+def hamacher_product(a: ScalarOrTensor, b: ScalarOrTensor) -> Tensor:
+    """Hamacher t-norm ``a·b / (a + b − a·b)``, and 0 where the denominator is 0 (``a = b = 0``).
+
+    Inputs are expected in [0, 1]; they are not checked here (no host sync). Use
+    :func:`hamacher_product_checked` while debugging.
+    """
+    # A Python-number operand stays a number (no host-to-device copy); two numbers give a 0-d tensor.
+    if isinstance(a, Tensor):
+        a = _as_float_tensor(a)
+    if isinstance(b, Tensor):
+        b = _as_float_tensor(b)
+    elif not isinstance(a, Tensor):
+        a = _as_float_tensor(a)
+    num = a * b
+    den = a + b - num
+    positive = den > 0
+    return torch.where(positive, num / torch.where(positive, den, 1.0), 0.0)
+
+
+def check_unit_interval(value: ScalarOrTensor, name: str = "value") -> None:
+    """Debug helper: raises ``ValueError`` unless every element of ``value`` lies in [0, 1] (syncs with the host)."""
+    v = _as_float_tensor(value)
+    bad = ~((v >= 0.0) & (v <= 1.0))
+    if bool(bad.any()):
+        first = v[bad].flatten()[0].item()
+        raise ValueError(f"{name} must range between 0 and 1; {int(bad.sum())} element(s) do not, e.g. {first}.")
+
+
+def hamacher_product_checked(a: ScalarOrTensor, b: ScalarOrTensor) -> Tensor:
+    """:func:`hamacher_product` with Meta-World's range validation (debug only: syncs with the host)."""
+    check_unit_interval(a, "a")
+    check_unit_interval(b, "b")
+    return hamacher_product(a, b)
+
+
+def rect_prism_tolerance(curr: Tensor, zero: Tensor, one: Tensor) -> Tensor:
+    """Reward ramp inside an axis-aligned box, 1.0 outside it.
+
+    ``zero`` and ``one`` are opposite corners (``[..., 3]``, broadcastable to ``curr``). Inside the box (bounds
+    inclusive, in either corner order) the value is ``∏_axis (curr − zero) / (one − zero)``: 0 at the ``zero``
+    face, 1 at the ``one`` corner. Outside it is 1.0. As in Meta-World a box that is flat along an axis gives
+    ``nan`` (0/0) for points on it.
+
+    Returns:
+        Tensor of shape ``curr.shape[:-1]``.
+    """
+    curr, zero, one = _as_float_tensor(curr), _as_float_tensor(zero), _as_float_tensor(one)
+    lo, hi = torch.minimum(zero, one), torch.maximum(zero, one)
+    in_prism = ((curr >= lo) & (curr <= hi)).all(dim=-1)
+    scale = ((curr - zero) / (one - zero)).prod(dim=-1)
+    return torch.where(in_prism, scale, 1.0)
+
+
+def gripper_caging_reward(
+    action: Tensor,
+    obj_pos: Tensor,
+    obj_radius: ScalarOrTensor,
+    pad_success_thresh: ScalarOrTensor,
+    object_reach_radius: ScalarOrTensor,
+    xz_thresh: ScalarOrTensor,
+    *,
+    left_pad: Tensor,
+    right_pad: Tensor,
+    tcp_center: Tensor,
+    obj_init_pos: Tensor,
+    init_tcp: Tensor,
+    desired_gripper_effort: ScalarOrTensor = 1.0,
+    high_density: bool = False,
+    medium_density: bool = False,
+    pad_axis: int = 1,
+) -> Tensor:
+    """Batched functional port of Meta-World's ``SawyerXYZEnv._gripper_caging_reward``.
+
+    Args:
+        action: ``[N, A]`` actions; ``action[..., 3]`` is the gripper effort (+1 = close, as in Meta-World).
+        obj_pos: ``[N, 3]`` current object position.
+        obj_radius: inner bound of the pad-to-object distance along the pad axis (float or ``[N]``).
+        pad_success_thresh: outer bound of the pad-to-object distance along the pad axis (float or ``[N]``).
+        object_reach_radius: TCP-to-object radius of the ``medium_density`` reach term (float or ``[N]``).
+        xz_thresh: TCP-to-object radius in the plane orthogonal to the pad axis (float or ``[N]``).
+        left_pad, right_pad: ``[N, 3]`` finger pad positions (Meta-World: ``leftpad``/``rightpad`` body origins).
+        tcp_center: ``[N, 3]`` current tool centre point (midpoint of the fingertips).
+        obj_init_pos: ``[N, 3]`` object position at the episode start.
+        init_tcp: ``[N, 3]`` TCP position at the episode start.
+        desired_gripper_effort: effort that counts as fully closed (float or ``[N]``).
+        high_density: average the result with the caging term.
+        medium_density: average the result with a TCP-to-object reach term.
+        pad_axis: world axis along which the pads separate (Meta-World: 1 = y); the "xz" plane is the
+            other two axes.
+
+    Returns:
+        ``[N]`` reward in [0, 1].
+    """
+    if high_density and medium_density:
+        raise ValueError("Can only be either high_density or medium_density")
+    if pad_axis not in (0, 1, 2):
+        raise ValueError(f"pad_axis must be one of 0, 1, 2, got {pad_axis!r}.")
+    plane = [i for i in range(3) if i != pad_axis]
+
+    # Caging along the pad axis: each pad must sit between obj_radius and pad_success_thresh from the object.
+    obj_p = obj_pos[..., pad_axis]
+    obj_init_p = obj_init_pos[..., pad_axis]
+    pad_caging = []
+    for pad in (left_pad, right_pad):
+        pad_p = pad[..., pad_axis]
+        margin = ((pad_p - obj_init_p).abs() - pad_success_thresh).abs()
+        pad_caging.append(
+            tolerance(
+                (pad_p - obj_p).abs(),
+                bounds=(obj_radius, pad_success_thresh),
+                margin=margin,
+                sigmoid="long_tail",
+            )
+        )
+    caging_pad_axis = hamacher_product(pad_caging[0], pad_caging[1])
+
+    # Caging in the orthogonal plane: TCP close to the object.
+    xz_margin = torch.linalg.vector_norm(obj_init_pos[..., plane] - init_tcp[..., plane], dim=-1) - xz_thresh
+    caging_xz = tolerance(
+        torch.linalg.vector_norm(tcp_center[..., plane] - obj_pos[..., plane], dim=-1),
+        bounds=(0.0, xz_thresh),
+        margin=xz_margin,  # a tensor: negative values act as 0 (Meta-World raises there)
+        sigmoid="long_tail",
+    )
+
+    effort = action[..., 3].clamp_min(0.0)
+    if isinstance(desired_gripper_effort, Tensor):
+        effort = torch.minimum(effort, desired_gripper_effort)
+    else:
+        effort = effort.clamp_max(float(desired_gripper_effort))
+    gripper_closed = effort / desired_gripper_effort
+
+    caging = hamacher_product(caging_pad_axis, caging_xz)
+    gripping = torch.where(caging > 0.97, gripper_closed, 0.0)
+    caging_and_gripping = hamacher_product(caging, gripping)
+
+    if high_density:
+        caging_and_gripping = (caging_and_gripping + caging) / 2.0
+    if medium_density:
+        tcp_to_obj = torch.linalg.vector_norm(obj_pos - tcp_center, dim=-1)
+        tcp_to_obj_init = torch.linalg.vector_norm(obj_init_pos - init_tcp, dim=-1)
+        reach = tolerance(
+            tcp_to_obj,
+            bounds=(0.0, object_reach_radius),
+            margin=(tcp_to_obj_init - object_reach_radius).abs(),
+            sigmoid="long_tail",
+        )
+        caging_and_gripping = (caging_and_gripping + reach) / 2.0
+    return caging_and_gripping
+
+
+def above_floor_funnel(
+    hand_pos: Tensor,
+    center: Tensor,
+    threshold: ScalarOrTensor,
+    *,
+    log_scale: float = 0.04,
+    log_offset: float = 0.4,
+    z_tolerance: float = 0.01,
+) -> Tensor:
+    """Keeps the hand above a log-shaped "floor" funnel centred on a handle (Meta-World door / box-close).
+
+    ``floor = 0`` within horizontal radius ``threshold`` of ``center``, else
+    ``log_scale·ln(radius − threshold) + log_offset``. The result is 1 where ``hand_z >= floor``, else
+    ``tolerance(floor − hand_z, (0, z_tolerance), margin=floor / 2, long_tail)``.
+
+    Heights are absolute, as in Meta-World (table surface at z = 0): a scene whose table sits elsewhere must
+    pass z relative to the table. Meta-World uses ``threshold=0.12`` with ``center = handle + (−0.05, 0, 0)``
+    for the door and ``threshold=0.02`` with ``center = lid + (0, 0, 0.02)`` for box-close.
+
+    Args:
+        hand_pos: ``[N, 3]`` hand (end-effector) position.
+        center: ``[N, 3]`` (or ``[N, 2]``) funnel centre; only x and y are used.
+        threshold: radius of the flat part of the funnel (float or ``[N]``).
+
+    Returns:
+        ``[N]`` value in [0, 1].
+    """
+    radius = torch.linalg.vector_norm(hand_pos[..., :2] - center[..., :2], dim=-1)
+    outside = radius > threshold
+    shifted = torch.where(outside, radius - threshold, 1.0)  # keep log() finite in the masked branch
+    floor = torch.where(outside, log_scale * torch.log(shifted) + log_offset, 0.0)
+    hand_z = hand_pos[..., 2]
+    below = tolerance(floor - hand_z, bounds=(0.0, z_tolerance), margin=floor / 2.0, sigmoid="long_tail")
+    return torch.where(hand_z >= floor, 1.0, below)
