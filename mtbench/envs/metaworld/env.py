@@ -61,7 +61,7 @@ class MetaWorldEnv(EnvBase):
         rand: bool = True,
         reward_scale: float = 100.0,
         episode_length: int = 150,
-        substeps: int = 5,
+        substeps: int = 3,
         random_start_progress: bool = True,
         nconmax: int | None = 64,
         njmax: int | None = 192,

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
+
+from . import tasks as _tasks_pkg
 from .task import MetaWorldTask
-from .tasks.reach import Reach
 
 # MTBench's task index (``franka_base.py: TASK_IDX_TO_NAME``); the order of MT50.
 ALL_TASK_NAMES: tuple[str, ...] = (
@@ -24,7 +27,22 @@ MT10: tuple[str, ...] = (
 )
 MT50: tuple[str, ...] = ALL_TASK_NAMES
 
-TASKS: dict[str, type[MetaWorldTask]] = {cls.name: cls for cls in (Reach,)}
+
+
+def _discover_tasks() -> dict[str, type[MetaWorldTask]]:
+    """Collect every ``MetaWorldTask`` subclass defined in the modules of ``mtbench.envs.metaworld.tasks``."""
+    found: dict[str, type[MetaWorldTask]] = {}
+    for info in pkgutil.iter_modules(_tasks_pkg.__path__):
+        module = importlib.import_module(f"{_tasks_pkg.__name__}.{info.name}")
+        for obj in vars(module).values():
+            if isinstance(obj, type) and issubclass(obj, MetaWorldTask) and obj.__module__ == module.__name__:
+                if obj.name in found:
+                    raise RuntimeError(f"task {obj.name!r} defined twice ({found[obj.name]} and {obj})")
+                found[obj.name] = obj
+    return found
+
+
+TASKS: dict[str, type[MetaWorldTask]] = _discover_tasks()
 
 
 def task_class(name: str) -> type[MetaWorldTask]:

@@ -15,8 +15,9 @@ from . import robot
 # (y in [0.4, 0.95], z in [0.0, 0.3] above the table) is reachable with the hand pointing down.
 ROBOT_BASE_POS = np.array([0.0, 0.15, 0.0])
 ROBOT_BASE_QUAT = np.array([np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)])  # +90 deg about z
-# physics options (Meta-World: dt 2.5 ms, Newton, elliptic cones; MuJoCo Warp supports Euler, not implicitfast)
-TIMESTEP = 0.0025
+# physics options (Meta-World: dt 2.5 ms x 5 substeps = 12.5 ms control, Newton, elliptic cones; we use 4 ms x 3 =
+# 12 ms control, which keeps all contact time constants >= 2 dt; MuJoCo Warp supports Euler, not implicitfast)
+TIMESTEP = 0.004
 SOLVER_ITERATIONS = 20
 LS_ITERATIONS = 10
 HOME_KEY = "home"
