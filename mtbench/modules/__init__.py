@@ -1,6 +1,44 @@
-"""Multi-task network architectures (plain ``nn.Module``s and TensorDictModule builders)."""
+"""Multi-task network architectures (plain ``nn.Module``s and TensorDictModule builders).
 
+Registered names (``make_network(arch, ...)``): ``mlp``, ``multihead``, ``soft_modularization``, ``care``,
+``care_mh``, ``paco``, ``moore``, ``moore_mh``. See docs/architectures.md.
+"""
+
+from .care import CARE
+from .compositional_linear import CompositionalLinear
+from .experts import ParallelExperts
+from .gram_schmidt import gram_schmidt
 from .mlp import MLP, activation_class, mlp_layers
-from .registry import ARCHITECTURES, make_network, register_architecture
+from .moore import MOORE
+from .multihead import MultiHeadMLP
+from .paco import PaCo
+from .registry import ARCHITECTURES, arch_kwargs, make_network, register_architecture
+from .soft_modularization import SoftModularization
+from .stacked_linear import StackedLinear
+from .task_descriptions import METAWORLD_TASK_DESCRIPTIONS, canonical_task_name, task_description
+from .task_embeddings import pretrained_task_embeddings
+from .td_module import make_td_network
 
-__all__ = ["ARCHITECTURES", "MLP", "activation_class", "make_network", "mlp_layers", "register_architecture"]
+__all__ = [
+    "ARCHITECTURES",
+    "CARE",
+    "CompositionalLinear",
+    "METAWORLD_TASK_DESCRIPTIONS",
+    "MLP",
+    "MOORE",
+    "MultiHeadMLP",
+    "PaCo",
+    "ParallelExperts",
+    "SoftModularization",
+    "StackedLinear",
+    "activation_class",
+    "arch_kwargs",
+    "canonical_task_name",
+    "gram_schmidt",
+    "make_network",
+    "make_td_network",
+    "mlp_layers",
+    "pretrained_task_embeddings",
+    "register_architecture",
+    "task_description",
+]

@@ -2,28 +2,107 @@
 
 from __future__ import annotations
 
-from typing import Any, Callable
+import functools
+import inspect
+from typing import Any, Callable, Mapping, Sequence
 
 from torch import nn
 
+from .care import CARE
 from .mlp import MLP
+from .moore import MOORE
+from .multihead import MultiHeadMLP
+from .paco import PaCo
+from .soft_modularization import SoftModularization
 
 ARCHITECTURES: dict[str, Callable[..., nn.Module]] = {
     "mlp": MLP,
+    "multihead": MultiHeadMLP,
+    "soft_modularization": SoftModularization,
+    "care": CARE,
+    "care_mh": functools.partial(CARE, multi_head=True),
+    "paco": PaCo,
+    "moore": MOORE,
+    "moore_mh": functools.partial(MOORE, multi_head=True),
 }
+
+_ROLES = ("actor", "critic")
 
 
 def register_architecture(name: str, constructor: Callable[..., nn.Module]) -> None:
-    """Register a network constructor ``constructor(obs_dim=, out_dim=, num_tasks=, **kwargs)``."""
+    """Register a network constructor ``constructor(obs_dim=, out_dim=, num_tasks=, **kwargs)``.
+
+    A constructor that declares a ``task_names`` parameter receives the task names given to :func:`make_network`.
+    """
     ARCHITECTURES[name] = constructor
 
 
-def make_network(arch: str, *, obs_dim: int, out_dim: int, num_tasks: int, **kwargs: Any) -> nn.Module:
-    """Build the network ``arch`` mapping ``(observation, task_id)`` to ``out_dim`` features."""
+def _accepts_task_names(constructor: Callable[..., nn.Module]) -> bool:
+    try:
+        return "task_names" in inspect.signature(constructor).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+def make_network(
+    arch: str,
+    *,
+    obs_dim: int,
+    out_dim: int,
+    num_tasks: int,
+    task_names: Sequence[str] | None = None,
+    **kwargs: Any,
+) -> nn.Module:
+    """Build the network ``arch`` mapping ``(observation, task_id)`` to ``out_dim`` features.
+
+    ``task_names`` (the env's ``task_names``, length ``num_tasks``) is forwarded only to constructors that declare a
+    ``task_names`` parameter (CARE uses them to look up task descriptions).
+    """
     if arch not in ARCHITECTURES:
         raise ValueError(f"unknown arch {arch!r}; valid choices: {sorted(ARCHITECTURES)}")
     if num_tasks < 1 or obs_dim <= num_tasks:
         raise ValueError(
-            f"arch {arch!r}: obs_dim={obs_dim} must exceed num_tasks={num_tasks} (observation = state + one-hot)"
+            f"arch {arch!r}: obs_dim={obs_dim} must exceed num_tasks={num_tasks} >= 1 (observation = state + one-hot)"
         )
-    return ARCHITECTURES[arch](obs_dim=obs_dim, out_dim=out_dim, num_tasks=num_tasks, **kwargs)
+    if isinstance(task_names, str):
+        raise ValueError(f"arch {arch!r}: task_names must be a sequence of names, got the string {task_names!r}")
+    if task_names is not None and len(task_names) != num_tasks:
+        raise ValueError(
+            f"arch {arch!r}: got {len(task_names)} task_names for num_tasks={num_tasks}; they must match "
+            "(pass env.task_names and env.num_tasks)"
+        )
+    constructor = ARCHITECTURES[arch]
+    if task_names is not None and _accepts_task_names(constructor):
+        kwargs["task_names"] = list(task_names)
+    return constructor(obs_dim=obs_dim, out_dim=out_dim, num_tasks=num_tasks, **kwargs)
+
+
+def arch_kwargs(arch_cfg: Mapping[str, Any], role: str) -> tuple[str, dict[str, Any]]:
+    """Resolve a ``conf/arch/*.yaml`` preset for ``role`` (``"actor"`` or ``"critic"``).
+
+    The preset schema is ``{name, kwargs, actor, critic}``; returns ``(name, {**kwargs, **preset[role]})``.
+    Works with plain dicts and OmegaConf ``DictConfig`` objects.
+    """
+    if role not in _ROLES:
+        raise ValueError(f"unknown role {role!r}; valid choices: {list(_ROLES)}")
+    if "name" not in arch_cfg:
+        raise ValueError(f"arch config needs a 'name' (one of {sorted(ARCHITECTURES)}); got keys {sorted(arch_cfg)}")
+    name = str(arch_cfg["name"])
+    if name not in ARCHITECTURES:
+        raise ValueError(f"unknown arch {name!r}; valid choices: {sorted(ARCHITECTURES)}")
+    merged: dict[str, Any] = {}
+    for part in (arch_cfg.get("kwargs") or {}, arch_cfg.get(role) or {}):
+        for key, value in part.items():
+            merged[str(key)] = _to_plain(value)
+    return name, merged
+
+
+def _to_plain(value: Any) -> Any:
+    try:  # OmegaConf containers -> plain Python (lists become tuples-friendly lists)
+        from omegaconf import DictConfig, ListConfig, OmegaConf
+
+        if isinstance(value, (DictConfig, ListConfig)):
+            return OmegaConf.to_container(value, resolve=True)
+    except ImportError:  # pragma: no cover - omegaconf is a hard dependency, kept optional here
+        pass
+    return value
