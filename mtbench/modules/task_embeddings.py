@@ -91,6 +91,7 @@ def _write_cache(path: Path, cache: dict[str, torch.Tensor]) -> None:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
         os.close(fd)
         torch.save(cache, tmp)
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600; make the cache readable like a normal file
         os.replace(tmp, path)  # atomic: concurrent readers see the old or the new file, never a partial one
     except OSError as err:
         warnings.warn(f"could not write the task-embedding cache {path}: {err}", stacklevel=3)
