@@ -9,6 +9,7 @@ constraint buffers overflowed. Nothing here knows about tasks, rewards or observ
 from __future__ import annotations
 
 import gc
+import os
 from typing import Sequence
 
 import mujoco
@@ -17,7 +18,22 @@ import numpy as np
 import torch
 import warp as wp
 
+if not os.environ.get("MTBENCH_WARP_VERBOSE"):
+    # no per-kernel load/compile chatter (set MTBENCH_WARP_VERBOSE=1 to see it); errors still raise
+    wp.config.quiet = True
+    if hasattr(wp, "LOG_WARNING"):
+        wp.config.log_level = wp.LOG_WARNING
 _WARP_INITIALIZED = False
+
+# Overflows that make a world's physics wrong (dropped contacts / constraints). Solver or linesearch iteration
+# limits are not: the solution is just less converged.
+FATAL_OVERFLOW = int(
+    mjw.OverflowType.ALL
+    & ~mjw.OverflowType.ITERATIONS
+    & ~mjw.OverflowType.LS_ITERATIONS
+    & ~mjw.OverflowType.CONTACT_MATCH
+    & ~mjw.OverflowType.TACTILE
+)
 
 
 def _init_warp() -> None:
@@ -94,6 +110,7 @@ class WarpSim:
         with wp.ScopedDevice(self.wp_device):
             batch = {name: nworld for name in batched_fields} or None
             self.model = mjw.put_model(mjm, batch_sizes=batch)
+            self.model.opt.warn_overflow = FATAL_OVERFLOW  # warn only about overflows that matter
             self.data = mjw.put_data(mjm, data0, nworld=nworld, nconmax=nconmax, njmax=njmax)
             self._key_ids = wp.full(nworld, -1, dtype=int)
         self.stream: torch.cuda.Stream | None = None
@@ -102,6 +119,8 @@ class WarpSim:
             self.stream = torch.cuda.Stream(device=self.device)
             self._wp_stream = wp.stream_from_torch(self.stream)
         self._key_ids_t = wp.to_torch(self._key_ids)
+        if not self._has_key:
+            self._reset_mask = wp.zeros(nworld, dtype=bool, device=self.wp_device)
         d = self.data
         # zero-copy torch views of the state (writes go straight to the simulator)
         self.qpos = wp.to_torch(d.qpos)
@@ -115,6 +134,8 @@ class WarpSim:
         self.time = wp.to_torch(d.time)
         self._overflow = wp.to_torch(d.overflow)
         self._graphs: dict[str, object] = {}
+        # True while an enclosing whole-step torch CUDA graph is being captured: run Warp work inline
+        self.inline_mode = False
         if use_graph:
             self._capture()
 
@@ -138,8 +159,6 @@ class WarpSim:
         mjw.kinematics(self.model, self.data)
 
     def _capture(self) -> None:
-        if not self._has_key:
-            self._reset_mask = wp.zeros(self.nworld, dtype=bool, device=self.wp_device)
         # warm-up (compiles the kernels) before capture, then capture with the GC off (see mjlab/mujoco_warp notes)
         with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._wp_stream) if self._wp_stream else _null():
             self._kinematics_impl()
@@ -162,9 +181,45 @@ class WarpSim:
                 fn()
 
     # ---------------------------------------------------------------- public API
+    def step_inline(self) -> None:
+        """Enqueue the physics on the current torch stream without Warp graphs, for use inside an enclosing
+        ``torch.cuda.graph`` capture (Warp joins it as an external capture, keeping its conditional solver
+        loops). On the CPU this is :meth:`launch_step`."""
+        if self.stream is None:
+            self.launch_step()
+            return
+        torch_stream = torch.cuda.current_stream(self.device)
+        wp_stream = wp.stream_from_torch(torch_stream)
+        capturing = torch.cuda.is_current_stream_capturing()
+        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream):
+            if capturing:
+                with wp.ScopedCapture(device=self.wp_device, stream=wp_stream, external=True):
+                    self._step_impl()
+            else:
+                self._step_impl()
+
+    def inline(self, name: str) -> None:
+        """Like :meth:`step_inline` for ``"reset"`` or ``"kin"``."""
+        fn = {"reset": self._reset_impl, "kin": self._kinematics_impl}[name]
+        if self.stream is None:
+            self._run(name, fn)
+            return
+        wp_stream = wp.stream_from_torch(torch.cuda.current_stream(self.device))
+        capturing = torch.cuda.is_current_stream_capturing()
+        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream):
+            if capturing:
+                with wp.ScopedCapture(device=self.wp_device, stream=wp_stream, external=True):
+                    fn()
+            else:
+                fn()
+
     def launch_step(self) -> None:
         """Enqueue ``substeps`` physics steps followed by kinematics (asynchronous on the GPU)."""
         self._run("step", self._step_impl)
+
+    def launch_step_on(self, stream: torch.cuda.Stream) -> None:
+        """Launch the captured step graph on ``stream`` instead of the block's own stream."""
+        wp.capture_launch(self._graphs["step"], stream=wp.stream_from_torch(stream))
 
     def step(self) -> None:
         """``substeps`` physics steps then kinematics, ordered after the current torch stream's work."""
@@ -176,16 +231,22 @@ class WarpSim:
 
         No host synchronisation: the mask is copied into a persistent device array read by a captured graph.
         """
-        with self._on_own_stream():
-            if self._has_key:
-                self._key_ids_t.copy_(torch.where(mask, 0, -1).to(self._key_ids_t.dtype))
-            else:
-                wp.to_torch(self._reset_mask).copy_(mask)
-            self._run("reset", self._reset_impl)
-            self._overflow.masked_fill_(mask, 0)
+        if self._has_key:
+            self._key_ids_t.copy_(torch.where(mask, 0, -1).to(self._key_ids_t.dtype))
+        else:
+            wp.to_torch(self._reset_mask).copy_(mask)
+        if self.inline_mode:
+            self.inline("reset")
+        else:
+            with self._on_own_stream():
+                self._run("reset", self._reset_impl)
+        self._overflow.masked_fill_(mask, 0)
 
     def kinematics(self) -> None:
         """Recompute positions/orientations of bodies and sites from ``qpos`` (after writing the state)."""
+        if self.inline_mode:
+            self.inline("kin")
+            return
         with self._on_own_stream():
             self._run("kin", self._kinematics_impl)
 
@@ -193,7 +254,7 @@ class WarpSim:
         """Bool ``[nworld]``: non-finite state, runaway velocities, or contact/constraint buffer overflow."""
         bad = ~torch.isfinite(self.qpos).all(-1) | ~torch.isfinite(self.qvel).all(-1)
         bad |= self.qvel.abs().amax(-1) > max_abs_qvel
-        bad |= self._overflow != 0
+        bad |= (self._overflow & FATAL_OVERFLOW) != 0
         return bad
 
     def _on_own_stream(self):
@@ -229,8 +290,12 @@ class _StreamJoin:
         return False
 
 
-def step_all(sims: Sequence[WarpSim]) -> None:
-    """Step several blocks concurrently: on the GPU each block's graph runs on its own stream."""
+def step_all(sims: Sequence[WarpSim], *, inline: bool = False, parallel_streams: bool = True) -> None:
+    """Step several blocks; on the GPU each block runs on its own CUDA stream (concurrently).
+
+    ``inline=True`` enqueues the Warp kernels directly (no Warp graphs) so that an enclosing
+    ``torch.cuda.graph`` capture records them; ``parallel_streams=False`` keeps every block on the current stream.
+    """
     if not sims:
         return
     if sims[0].stream is None:
@@ -238,10 +303,14 @@ def step_all(sims: Sequence[WarpSim]) -> None:
             sim.launch_step()
         return
     main = torch.cuda.current_stream(sims[0].device)
+    if not parallel_streams:
+        for sim in sims:
+            sim.step_inline() if inline else sim.launch_step_on(main)
+        return
     for sim in sims:
         sim.stream.wait_stream(main)
         with torch.cuda.stream(sim.stream):
-            sim.launch_step()
+            sim.step_inline() if inline else sim.launch_step()
     for sim in sims:
         main.wait_stream(sim.stream)
 

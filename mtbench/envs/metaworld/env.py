@@ -47,6 +47,9 @@ class MetaWorldEnv(EnvBase):
             not counted in the episode statistics.
         nconmax, njmax: contact / constraint buffer sizes per world.
         use_graph: capture physics as graphs (CUDA graphs on the GPU, Warp CPU graphs on the CPU).
+        cuda_graph: on the GPU, capture the whole env step (action, physics of every block, observation,
+            reward, statistics, autoreset) as one CUDA graph after a few eager warm-up steps.
+        parallel_streams: on the GPU, run the task blocks' physics concurrently on one CUDA stream each.
     """
 
     _torchrl_native_autoreset = True
@@ -66,6 +69,8 @@ class MetaWorldEnv(EnvBase):
         nconmax: int | None = 64,
         njmax: int | None = 192,
         use_graph: bool = True,
+        cuda_graph: bool = True,
+        parallel_streams: bool = True,
     ) -> None:
         tasks = list(tasks)
         counts = [int(c) for c in task_counts]
@@ -97,7 +102,7 @@ class MetaWorldEnv(EnvBase):
             task_cls, mjm = compiled_task(name)
             sim = WarpSim(mjm, count, dev, substeps=substeps, nconmax=nconmax, njmax=njmax,
                           batched_fields=("body_pos",), use_graph=use_graph)
-            task = task_cls(mjm)
+            task = task_cls(mjm, dev)
             self.blocks.append((task, TaskState(sim=sim, n=count, device=dev)))
             self.slices.append(slice(start, start + count))
             start += count
@@ -107,15 +112,21 @@ class MetaWorldEnv(EnvBase):
         hand_offset = torch.tensor([0.0, 0.0, robot.TCP_OFFSET], device=dev)
         self._mocap_low = torch.tensor(HAND_LOW, device=dev) + hand_offset
         self._mocap_high = torch.tensor(HAND_HIGH, device=dev) + hand_offset
-        # per-world episode state
+        # per-world episode state (updated in place: the step may be replayed from a CUDA graph)
         self._step_count = torch.zeros(num_envs, dtype=torch.long, device=dev)
         self._ep_return = torch.zeros(num_envs, device=dev)
         self._ep_success = torch.zeros(num_envs, dtype=torch.bool, device=dev)
         self._ep_counted = torch.ones(num_envs, dtype=torch.bool, device=dev)
         self._prev_frame = torch.zeros(num_envs, 18, device=dev)
-        self._reset_vec: list[torch.Tensor | None] = [None] * self.num_tasks
+        self._reset_vec = [task.sample(s.n, self._generator, dev) for task, s in self.blocks]
         self._vec_sampled = torch.zeros(num_envs, dtype=torch.bool, device=dev)
         self._stats = torch.zeros(5, self.num_tasks, device=dev)  # episodes, success, return, length, unhealthy
+        self._parallel_streams = parallel_streams
+        self._use_cuda_graph = cuda_graph and dev.type == "cuda" and use_graph
+        self._graph: torch.cuda.CUDAGraph | None = None
+        self._eager_steps = 0
+        self._static_action = torch.zeros(num_envs, ACTION_DIM, device=dev)
+        self._out: dict[str, torch.Tensor] = {}
         self._make_specs()
 
     # ------------------------------------------------------------------ specs
@@ -158,22 +169,19 @@ class MetaWorldEnv(EnvBase):
             m = mask[sl]
             s.sim.reset(m)
             new = task.sample(s.n, self._generator, self.device)
-            old = self._reset_vec[b]
-            if old is None:
-                old = new
             keep = torch.zeros_like(m) if self.rand else self._vec_sampled[sl]
-            vec = torch.where(keep[:, None], old, new)
-            self._reset_vec[b] = torch.where(m[:, None], vec, old)
+            vec = torch.where(keep[:, None], self._reset_vec[b], new)
+            self._reset_vec[b].copy_(torch.where(m[:, None], vec, self._reset_vec[b]))
             task.reset(s, vec, m)
             s.sim.kinematics()
         self._vec_sampled |= mask
         self._refresh_kinematic_quantities()
         for (task, s), sl in zip(self.blocks, self.slices):
-            m = mask[sl]
-            s.init_tcp.copy_(torch.where(m[:, None], s.tcp, s.init_tcp))
-            s.init_left_pad.copy_(torch.where(m[:, None], s.left_pad, s.init_left_pad))
-            s.init_right_pad.copy_(torch.where(m[:, None], s.right_pad, s.init_right_pad))
-            task.after_reset(s, m)
+            m = mask[sl][:, None]
+            s.init_tcp.copy_(torch.where(m, s.tcp, s.init_tcp))
+            s.init_left_pad.copy_(torch.where(m, s.left_pad, s.init_left_pad))
+            s.init_right_pad.copy_(torch.where(m, s.right_pad, s.init_right_pad))
+            task.after_reset(s, mask[sl])
 
     def _apply_action(self, action: torch.Tensor) -> None:
         action = action.clamp(-1.0, 1.0)
@@ -196,40 +204,75 @@ class MetaWorldEnv(EnvBase):
 
     # ------------------------------------------------------------------ EnvBase API
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        action = tensordict.get("action")
+        self._static_action.copy_(tensordict.get("action"))
+        if self._use_cuda_graph:
+            if self._graph is None and self._eager_steps >= 3:
+                self._capture_step()
+            if self._graph is not None:
+                self._graph.replay()
+            else:
+                self._eager_steps += 1
+                self._core_step()
+        else:
+            self._core_step()
+        out = self._out
+        return TensorDict(
+            {
+                "observation": out["observation"].clone(),
+                "task_id": self.task_id,
+                "reward": out["reward"].clone(),
+                "done": out["done"].clone(),
+                "terminated": torch.zeros_like(out["done"]),
+                "truncated": out["done"].clone(),
+            },
+            batch_size=self.batch_size,
+            device=self.device,
+        )
+
+    def _capture_step(self) -> None:
+        """Record one env step (all blocks, all torch work) as a CUDA graph; replays run it without Python."""
+        for _, s in self.blocks:
+            s.sim.inline_mode = True
+        graph = torch.cuda.CUDAGraph()
+        if hasattr(graph, "register_generator_state"):
+            graph.register_generator_state(self._generator)
+        side = torch.cuda.Stream(self.device)
+        side.wait_stream(torch.cuda.current_stream(self.device))
+        try:
+            with torch.cuda.graph(graph, stream=side):
+                self._core_step()
+        finally:
+            for _, s in self.blocks:
+                s.sim.inline_mode = False
+        torch.cuda.current_stream(self.device).wait_stream(side)
+        self._graph = graph
+
+    def _core_step(self) -> None:
+        """One control step of every world from ``self._static_action`` into ``self._out`` (in place)."""
+        action = self._static_action.clamp(-1.0, 1.0)
         self._apply_action(action)
-        step_all([s.sim for _, s in self.blocks])
+        capturing = self.device.type == "cuda" and torch.cuda.is_current_stream_capturing()
+        step_all([s.sim for _, s in self.blocks], inline=capturing, parallel_streams=self._parallel_streams)
         self._refresh_kinematic_quantities()
         frame = self._frames()
-        reward, success = self._evaluate(action.clamp(-1.0, 1.0), frame)
+        reward, success = self._evaluate(action, frame)
         unhealthy = torch.cat([s.sim.unhealthy() for _, s in self.blocks])
         reward = torch.where(torch.isfinite(reward) & ~unhealthy, reward, torch.zeros_like(reward))
         self._step_count += 1
         self._ep_return += reward
         self._ep_success |= success & ~unhealthy
-        truncated = (self._step_count >= self.max_episode_steps) | unhealthy
-        self._accumulate_stats(truncated, unhealthy)
+        done = (self._step_count >= self.max_episode_steps) | unhealthy
+        self._accumulate_stats(done, unhealthy)
         # native autoreset: finished worlds start their next episode now; no host sync, all rows computed
-        self._reset_worlds(truncated)
+        self._reset_worlds(done)
         reset_frame = self._frames()
-        frame = torch.where(truncated[:, None], reset_frame, frame)
+        frame = torch.where(done[:, None], reset_frame, frame)
         # Meta-World: the previous frame of an episode's first observation is that frame itself
-        self._prev_frame = torch.where(truncated[:, None], reset_frame, self._prev_frame)
+        self._prev_frame.copy_(torch.where(done[:, None], reset_frame, self._prev_frame))
         obs = self._observation(frame)
-        self._prev_frame = frame
-        self._begin_episode(truncated)
-        return TensorDict(
-            {
-                "observation": obs,
-                "task_id": self.task_id,
-                "reward": reward[:, None],
-                "done": truncated[:, None].clone(),
-                "terminated": torch.zeros_like(truncated)[:, None],
-                "truncated": truncated[:, None].clone(),
-            },
-            batch_size=self.batch_size,
-            device=self.device,
-        )
+        self._prev_frame.copy_(frame)
+        self._begin_episode(done)
+        self._out = {"observation": obs, "reward": reward[:, None], "done": done[:, None]}
 
     def _accumulate_stats(self, done: torch.Tensor, unhealthy: torch.Tensor) -> None:
         counted = (done & self._ep_counted).float()
@@ -238,10 +281,10 @@ class MetaWorldEnv(EnvBase):
         self._stats.index_add_(1, self.task_id, rows)
 
     def _begin_episode(self, mask: torch.Tensor) -> None:
-        self._step_count = torch.where(mask, torch.zeros_like(self._step_count), self._step_count)
-        self._ep_return = torch.where(mask, torch.zeros_like(self._ep_return), self._ep_return)
-        self._ep_success = self._ep_success & ~mask
-        self._ep_counted = self._ep_counted | mask
+        self._step_count.masked_fill_(mask, 0)
+        self._ep_return.masked_fill_(mask, 0.0)
+        self._ep_success.masked_fill_(mask, False)
+        self._ep_counted |= mask
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
         n = self.batch_size[0]
@@ -250,14 +293,14 @@ class MetaWorldEnv(EnvBase):
             mask = tensordict.get("_reset").reshape(n).to(self.device)
         self._reset_worlds(mask)
         frame = self._frames()
-        self._prev_frame = torch.where(mask[:, None], frame, self._prev_frame)
+        self._prev_frame.copy_(torch.where(mask[:, None], frame, self._prev_frame))
         obs = self._observation(frame)
-        self._prev_frame = frame
+        self._prev_frame.copy_(frame)
         self._begin_episode(mask)
         if self.random_start_progress:
             start = torch.randint(0, self.max_episode_steps, (n,), generator=self._generator, device=self.device)
-            self._step_count = torch.where(mask, start, self._step_count)
-            self._ep_counted = self._ep_counted & ~(mask & (start > 0))
+            self._step_count.copy_(torch.where(mask, start, self._step_count))
+            self._ep_counted &= ~(mask & (start > 0))
         return TensorDict(
             {
                 "observation": obs,

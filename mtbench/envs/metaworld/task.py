@@ -65,15 +65,25 @@ class MetaWorldTask:
     dense_scale: ClassVar[float] = 0.01
     success_bonus: ClassVar[float] = 10.0
 
-    def __init__(self, model: mujoco.MjModel) -> None:
+    def __init__(self, model: mujoco.MjModel, device: torch.device | str = "cpu") -> None:
         self.model = model
+        self.device = torch.device(device)
         self.left_pad_site = model.site(robot.LEFT_PAD).id
         self.right_pad_site = model.site(robot.RIGHT_PAD).id
+        # constants live on the device: the env step may be captured in a CUDA graph, where creating tensors
+        # from Python data (a host-to-device copy) is not allowed. Tasks must follow the same rule.
+        self._reset_low = torch.tensor(self.reset_low, dtype=torch.float32, device=self.device)
+        self._reset_high = torch.tensor(self.reset_high, dtype=torch.float32, device=self.device)
         self.bind(model)
 
     # ------------------------------------------------------------------ helpers for subclasses
     def bind(self, model: mujoco.MjModel) -> None:
-        """Resolve model ids (bodies, sites, joints) the task uses."""
+        """Resolve model ids (bodies, sites, joints) the task uses and create its constant tensors on
+        ``self.device`` (never create tensors from Python data in ``reset``/``evaluate``/``object_state``)."""
+
+    def const(self, values) -> torch.Tensor:
+        """A float32 constant tensor on the task's device (for use in ``bind``)."""
+        return torch.tensor(values, dtype=torch.float32, device=self.device)
 
     def joint_qposadr(self, name: str) -> int:
         return int(self.model.joint(name).qposadr[0])
@@ -86,10 +96,8 @@ class MetaWorldTask:
 
     def sample(self, n: int, generator: torch.Generator, device: torch.device) -> torch.Tensor:
         """``n`` reset vectors drawn uniformly from the reset space."""
-        low = torch.tensor(self.reset_low, device=device)
-        high = torch.tensor(self.reset_high, device=device)
-        u = torch.rand(n, low.numel(), generator=generator, device=device)
-        return low + u * (high - low)
+        u = torch.rand(n, self._reset_low.numel(), generator=generator, device=device)
+        return self._reset_low + u * (self._reset_high - self._reset_low)
 
     @staticmethod
     def set_free_body(sim: WarpSim, qposadr: int, pos: torch.Tensor, mask: torch.Tensor,
