@@ -119,7 +119,7 @@ class CARE(nn.Module):
         self.trunk, width = mlp_layers(enc_dim + ctx_dim, hidden, "relu")
         _xavier_zero_bias(self)
         if multi_head:
-            self.heads: nn.Module = StackedLinear(num_tasks, width, out_dim).xavier_(1.0)
+            self.heads: StackedLinear | nn.Linear = StackedLinear(num_tasks, width, out_dim).xavier_(1.0)
         else:
             self.heads = nn.Linear(width, out_dim)
             nn.init.xavier_uniform_(self.heads.weight)

@@ -89,7 +89,7 @@ class MOORE(nn.Module):
                 nn.init.zeros_(m.bias)
 
         if multi_head:
-            self.heads: nn.Module = StackedLinear(num_tasks, hidden_dim, out_dim).xavier_(1.0)
+            self.heads: StackedLinear | nn.Linear = StackedLinear(num_tasks, hidden_dim, out_dim).xavier_(1.0)
         else:
             self.heads = nn.Linear(hidden_dim + num_tasks, out_dim)
             nn.init.xavier_uniform_(self.heads.weight)
