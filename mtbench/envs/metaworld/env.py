@@ -9,7 +9,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
-from ...sim import WarpSim, step_all
+from ...sim import WarpSim, step_all, warp_device
 from . import robot
 from .models import compiled_task
 from .task import HAND_HIGH, HAND_LOW, MetaWorldTask, TaskState
@@ -83,6 +83,7 @@ class MetaWorldEnv(EnvBase):
         if episode_length < 1:
             raise ValueError(f"episode_length must be positive, got {episode_length}")
         num_envs = sum(counts)
+        warp_device(device)  # clear error for an unavailable device, before torch touches it
         super().__init__(device=device, batch_size=torch.Size([num_envs]))
         dev = self.device
         self.task_names = tasks

@@ -1,0 +1,159 @@
+"""The Meta-World env contract: TorchRL specs, native autoreset, seeding, reward/observation layout, errors."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+from torchrl.collectors import Collector
+from torchrl.envs.utils import check_env_specs
+
+from mtbench.envs import make_env, split_envs
+from mtbench.envs.metaworld import TASKS
+from mtbench.envs.metaworld.env import STATE_DIM
+
+
+def _random_actions(env, steps: int, seed: int) -> torch.Tensor:
+    g = torch.Generator().manual_seed(seed)
+    return torch.rand(steps, env.batch_size[0], 4, generator=g) * 2 - 1
+
+
+def _run(env, actions: torch.Tensor):
+    td = env.reset()
+    obs, rewards, dones = [td["observation"]], [], []
+    for a in actions:
+        td["action"] = a
+        out, td = env.step_and_maybe_reset(td)
+        obs.append(td["observation"])
+        rewards.append(out["next", "reward"])
+        dones.append(out["next", "done"])
+    return torch.stack(obs), torch.stack(rewards), torch.stack(dones)
+
+
+def test_check_env_specs_two_tasks() -> None:
+    env = make_env(["reach", "reach"][:1] + [t for t in ("push", "drawer_close") if t in TASKS][:1],
+                   num_envs=4, device="cpu", seed=0)
+    check_env_specs(env)
+    assert env.observation_spec["observation"].shape[-1] == STATE_DIM + env.num_tasks
+
+
+def test_observation_layout_and_task_ids() -> None:
+    env = make_env("reach", num_envs=3, device="cpu", seed=0)
+    td = env.reset()
+    obs = td["observation"]
+    assert obs.shape == (3, STATE_DIM + 1) and torch.all(obs[:, -1] == 1)
+    assert torch.equal(td["task_id"], torch.zeros(3, dtype=torch.long))
+    # first observation of an episode: the previous frame equals the current frame (Meta-World)
+    assert torch.equal(obs[:, 0:18], obs[:, 18:36])
+    # the goal (last 3 state dims) lies in the task's reset range
+    low, high = torch.tensor(TASKS["reach"].reset_low[3:]), torch.tensor(TASKS["reach"].reset_high[3:])
+    assert torch.all(obs[:, 36:39] >= low - 1e-6) and torch.all(obs[:, 36:39] <= high + 1e-6)
+    # gripper starts open and the TCP starts at the task's initial hand position
+    assert torch.all(obs[:, 3] > 0.8)
+    assert torch.allclose(obs[:, 0:3], torch.tensor(TASKS["reach"].scene.hand_init_pos).expand(3, 3), atol=3e-3)
+
+
+def test_autoreset_episode_length_and_statistics() -> None:
+    env = make_env("reach", num_envs=4, device="cpu", seed=0, episode_length=10, random_start_progress=False)
+    obs, rewards, dones = _run(env, _random_actions(env, 25, 0))
+    done_steps = dones[:, :, 0].all(dim=1).nonzero().flatten().tolist()
+    assert done_steps == [9, 19]
+    assert int(dones.sum()) == 8  # only at the truncation steps
+    # the observation returned with done=True is the first of the next episode (prev frame == frame)
+    assert torch.equal(obs[10][:, 0:18], obs[10][:, 18:36])
+    assert not torch.equal(obs[9][:, 0:18], obs[9][:, 18:36])
+    stats = env.pop_episode_stats()
+    assert stats["episodes"].tolist() == [8.0]
+    assert stats["length"].tolist() == [80.0]
+    assert torch.allclose(stats["return"], rewards[:20].sum(), rtol=1e-5)
+    assert env.pop_episode_stats()["episodes"].tolist() == [0.0]  # popped
+
+
+def test_random_start_progress_skips_partial_first_episodes() -> None:
+    env = make_env("reach", num_envs=16, device="cpu", seed=3, episode_length=20)
+    _, _, dones = _run(env, _random_actions(env, 30, 1))
+    stats = env.pop_episode_stats()
+    # every world finished its (shortened) first episode; the ones that started at step 0 finished a full one
+    assert int(dones.sum()) >= 16
+    assert float(stats["length"]) == pytest.approx(20.0 * float(stats["episodes"]))
+
+
+def test_seeded_runs_are_reproducible() -> None:
+    a = make_env("reach", num_envs=3, device="cpu", seed=7, episode_length=15)
+    b = make_env("reach", num_envs=3, device="cpu", seed=7, episode_length=15)
+    c = make_env("reach", num_envs=3, device="cpu", seed=8, episode_length=15)
+    actions = _random_actions(a, 40, 2)
+    oa, ra, _ = _run(a, actions)
+    ob, rb, _ = _run(b, actions)
+    oc, _, _ = _run(c, actions)
+    assert torch.equal(oa, ob) and torch.equal(ra, rb)
+    assert not torch.equal(oa[:, :, 36:39], oc[:, :, 36:39])
+
+
+def test_fixed_goals_persist_and_rand_goals_change() -> None:
+    fixed = make_env("reach", num_envs=4, device="cpu", seed=1, rand=False, episode_length=5,
+                     random_start_progress=False)
+    rand = make_env("reach", num_envs=4, device="cpu", seed=1, rand=True, episode_length=5,
+                    random_start_progress=False)
+    of, _, _ = _run(fixed, _random_actions(fixed, 12, 0))
+    orr, _, _ = _run(rand, _random_actions(rand, 12, 0))
+    goals_f, goals_r = of[:, :, 36:39], orr[:, :, 36:39]
+    assert torch.equal(goals_f[0], goals_f[5]) and torch.equal(goals_f[0], goals_f[10])
+    assert len({tuple(g.tolist()) for g in goals_f[0]}) == 4  # each world has its own goal
+    assert not torch.equal(goals_r[0], goals_r[5])
+
+
+def test_reward_scale_applies_to_dense_steps_only() -> None:
+    kw = dict(num_envs=4, device="cpu", seed=5, random_start_progress=False)
+    env100, env50 = make_env("reach", reward_scale=100.0, **kw), make_env("reach", reward_scale=50.0, **kw)
+    actions = _random_actions(env100, 8, 3) * 0.2
+    _, r100, _ = _run(env100, actions)
+    _, r50, _ = _run(env50, actions)
+    dense = r100 < 10.0
+    assert dense.any()
+    assert torch.allclose(r100[dense], 2 * r50[dense], rtol=1e-5)
+
+
+def test_success_gives_the_constant_bonus() -> None:
+    from mtbench.envs.metaworld.policies import scripted_policy
+
+    env = make_env("reach", num_envs=2, device="cpu", seed=0, random_start_progress=False)
+    td, policy, rewards = env.reset(), scripted_policy("reach"), []
+    for _ in range(60):
+        td["action"] = policy(td["observation"][:, :STATE_DIM])
+        out, td = env.step_and_maybe_reset(td)
+        rewards.append(out["next", "reward"])
+    rewards = torch.cat(rewards, dim=1)
+    assert torch.all(rewards[:, -1] == 10.0)  # solved and held: bonus every step, not accumulated
+    assert torch.all(rewards[:, 0] < 10.0)
+
+
+def test_collector_with_native_autoreset() -> None:
+    env = make_env("reach", num_envs=4, device="cpu", seed=0, episode_length=6)
+    collector = Collector(env, policy=None, frames_per_batch=4 * 8, total_frames=4 * 16, trust_policy=True)
+    batches = list(collector)
+    collector.shutdown()
+    assert len(batches) == 2 and batches[0].shape == (4, 8)
+    assert torch.isfinite(batches[1]["next", "reward"]).all()
+    assert batches[0]["next", "done"].any()
+
+
+def test_bad_inputs_give_clear_errors() -> None:
+    with pytest.raises(ValueError, match="valid choices"):
+        make_env("mt11")
+    with pytest.raises(ValueError, match="unknown task names"):
+        make_env(["reach", "not_a_task"])
+    with pytest.raises(ValueError, match="one per task"):
+        make_env(["reach"], num_envs=[2, 2])
+    with pytest.raises(ValueError, match="positive"):
+        make_env(["reach"], num_envs=[0])
+    with pytest.raises(ValueError, match="smaller than the number of tasks"):
+        make_env("mt10", num_envs=5)
+    if not torch.cuda.is_available():
+        with pytest.raises(RuntimeError, match="CUDA is not available"):
+            make_env("reach", num_envs=1, device="cuda")
+
+
+def test_split_envs_matches_mtbench() -> None:
+    assert split_envs(24576, 10) == [2458] * 6 + [2457] * 4
+    assert split_envs(24576, 50) == [492] * 26 + [491] * 24
+    assert split_envs(4096, 10) == [410] * 6 + [409] * 4

@@ -1,0 +1,97 @@
+"""MuJoCo Warp simulation layer: agreement with MuJoCo C, masked resets, zero-copy views, health checks."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+
+from mtbench.envs.metaworld.models import compiled_task
+from mtbench.sim import WarpSim
+
+
+@pytest.fixture(scope="module")
+def reach_model() -> mujoco.MjModel:
+    return compiled_task("reach")[1]
+
+
+def _mocap_path(t: int) -> np.ndarray:
+    """A smooth hand trajectory that moves the arm through the workspace."""
+    return np.array([0.1 * np.sin(0.05 * t), 0.6 + 0.1 * np.sin(0.03 * t), 0.2 - 0.1 * np.sin(0.04 * t)])
+
+
+def test_warp_cpu_matches_mujoco_c_over_100_steps(reach_model: mujoco.MjModel) -> None:
+    """Same model, same initial state, same mocap/actuator inputs: Warp (CPU, float32) tracks C (float64)."""
+    m = reach_model
+    sim = WarpSim(m, nworld=2, device="cpu", substeps=1)
+    sim.reset(torch.ones(2, dtype=torch.bool))
+    sim.kinematics()
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    hand0 = d.mocap_pos[0].copy()
+    errors = []
+    for t in range(100):
+        target = hand0 + (_mocap_path(t) - _mocap_path(0))
+        grip = 1.0 if (t // 25) % 2 else -1.0
+        d.mocap_pos[0] = target
+        d.ctrl[0] = grip
+        sim.mocap_pos[:, 0] = torch.as_tensor(target, dtype=torch.float32)
+        sim.ctrl[:, 0] = grip
+        mujoco.mj_step(m, d)
+        sim.step()
+        errors.append(np.abs(sim.qpos[0].numpy() - d.qpos).max())
+    # both worlds got identical inputs: identical results
+    assert torch.equal(sim.qpos[0], sim.qpos[1])
+    # float32 Warp vs float64 C over 100 steps of a moving, contact-free arm (measured: ~1e-4)
+    print(f"max |qpos_warp - qpos_C| over 100 steps: {max(errors):.2e}")
+    assert max(errors) < 2e-3, f"max |qpos_warp - qpos_C| = {max(errors):.2e}"
+    # the trajectory is not trivial: the arm moved by a lot in both simulators
+    assert np.abs(d.qpos - m.key("home").qpos).max() > 0.1
+
+
+def test_masked_reset_only_touches_masked_worlds(reach_model: mujoco.MjModel) -> None:
+    sim = WarpSim(reach_model, nworld=4, device="cpu", substeps=2)
+    sim.reset(torch.ones(4, dtype=torch.bool))
+    home = sim.qpos[0].clone()
+    sim.mocap_pos[:, 0, 2] += 0.1
+    for _ in range(20):
+        sim.step()
+    moved = sim.qpos.clone()
+    assert (moved - home).abs().amax(-1).min() > 1e-3
+    mask = torch.tensor([False, True, False, True])
+    sim.reset(mask)
+    assert torch.allclose(sim.qpos[1], home) and torch.allclose(sim.qpos[3], home)
+    assert torch.equal(sim.qpos[0], moved[0]) and torch.equal(sim.qpos[2], moved[2])
+    assert torch.all(sim.qvel[mask] == 0)
+    # the reset also restores the keyframe's mocap target
+    key_mocap = torch.as_tensor(reach_model.key("home").mpos, dtype=torch.float32)
+    assert torch.allclose(sim.mocap_pos[1, 0], key_mocap)
+
+
+def test_torch_views_are_zero_copy(reach_model: mujoco.MjModel) -> None:
+    sim = WarpSim(reach_model, nworld=2, device="cpu", use_graph=False)
+    assert sim.qpos.data_ptr() == sim.data.qpos.ptr
+    sim.qpos[1, 0] = 0.123
+    assert sim.data.qpos.numpy()[1, 0] == pytest.approx(0.123)
+
+
+def test_unhealthy_flags_nan_and_runaway_worlds(reach_model: mujoco.MjModel) -> None:
+    sim = WarpSim(reach_model, nworld=3, device="cpu")
+    sim.reset(torch.ones(3, dtype=torch.bool))
+    assert not sim.unhealthy().any()
+    sim.qvel[1, 3] = float("nan")
+    sim.qvel[2, 8] = 1e6
+    assert sim.unhealthy().tolist() == [False, True, True]
+    sim.reset(torch.tensor([False, True, True]))
+    assert not sim.unhealthy().any()
+
+
+def test_bad_arguments_are_rejected(reach_model: mujoco.MjModel) -> None:
+    with pytest.raises(ValueError, match="nworld"):
+        WarpSim(reach_model, nworld=0)
+    with pytest.raises(ValueError, match="substeps"):
+        WarpSim(reach_model, nworld=1, substeps=0)
+    if not torch.cuda.is_available():
+        with pytest.raises(RuntimeError, match="CUDA is not available"):
+            WarpSim(reach_model, nworld=1, device="cuda")
