@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from typing import Sequence
 
 import torch
@@ -211,6 +212,8 @@ class MetaWorldEnv(EnvBase):
                 self._capture_step()
             if self._graph is not None:
                 self._graph.replay()
+            elif not self._use_cuda_graph:  # capture failed: eager from now on
+                self._core_step()
             else:
                 self._eager_steps += 1
                 self._core_step()
@@ -239,14 +242,28 @@ class MetaWorldEnv(EnvBase):
             graph.register_generator_state(self._generator)
         side = torch.cuda.Stream(self.device)
         side.wait_stream(torch.cuda.current_stream(self.device))
+        snapshot = self._state_snapshot()
         try:
             with torch.cuda.graph(graph, stream=side):
                 self._core_step()
+        except Exception as err:  # noqa: BLE001 - fall back to per-block graphs, loudly
+            warnings.warn(f"whole-step CUDA graph capture failed ({type(err).__name__}: {err}); "
+                          "continuing with per-block physics graphs (cuda_graph=False)", stacklevel=2)
+            self._use_cuda_graph = False
+            self._restore_state(snapshot)
+            return
         finally:
             for _, s in self.blocks:
                 s.sim.inline_mode = False
         torch.cuda.current_stream(self.device).wait_stream(side)
         self._graph = graph
+
+    def _state_snapshot(self) -> dict[str, torch.Tensor]:
+        return {k: getattr(self, k).clone() for k in ("_step_count", "_ep_return", "_ep_success", "_prev_frame")}
+
+    def _restore_state(self, snapshot: dict[str, torch.Tensor]) -> None:
+        for k, v in snapshot.items():
+            getattr(self, k).copy_(v)
 
     def _core_step(self) -> None:
         """One control step of every world from ``self._static_action`` into ``self._out`` (in place)."""
