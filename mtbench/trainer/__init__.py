@@ -1,0 +1,1 @@
+"""MT-PPO / MT-GRPO training pipeline (Hydra front door in examples/train.py)."""
