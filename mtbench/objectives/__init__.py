@@ -4,6 +4,17 @@ from .gradients import compute_gradients, total_loss
 from .grpo import MTGRPOLoss, discounted_reward_to_go, grpo_advantages
 from .ppo import MTClipPPOBase, MTPPOLoss
 
+# gradient manipulation (issue #5)
+from .cagrad import CAGrad, cagrad, cagrad_weights
+from .diagnostics import DIAGNOSTIC_KEYS, GradientDiagnostics
+from .famo import FAMO
+from .grad_method import GRADIENT_METHODS, make_gradient_method
+from .param_groups import PARAM_GROUPS, resolve_param_group
+from .pcgrad import PCGrad, pcgrad, pcgrad_weights
+from .per_task import task_means
+from .task_gradients import cosine_stats, per_task_gradients
+from .task_wrapper import TaskGradientWrapper
+
 __all__ = [
     "MTClipPPOBase",
     "MTGRPOLoss",
@@ -12,4 +23,22 @@ __all__ = [
     "discounted_reward_to_go",
     "grpo_advantages",
     "total_loss",
+    # gradient manipulation
+    "CAGrad",
+    "DIAGNOSTIC_KEYS",
+    "FAMO",
+    "GRADIENT_METHODS",
+    "GradientDiagnostics",
+    "PARAM_GROUPS",
+    "PCGrad",
+    "TaskGradientWrapper",
+    "cagrad",
+    "cagrad_weights",
+    "cosine_stats",
+    "make_gradient_method",
+    "pcgrad",
+    "pcgrad_weights",
+    "per_task_gradients",
+    "resolve_param_group",
+    "task_means",
 ]

@@ -1,0 +1,320 @@
+"""Base class of the gradient-manipulation wrappers: per-task losses from a per-sample TorchRL loss.
+
+A wrapper holds an inner :class:`~torchrl.objectives.LossModule` run with ``reduction="none"`` (the
+wrapper sets it). From the per-sample ``loss_*`` terms and the batch's ``task_id`` it forms
+
+* ``M``: the *manipulated* terms, per task (masked means, ``[K]``), for the parameter group ``params``:
+  ``"critic"`` -> ``loss_critic`` on the critic parameters (MTBench's PPO configs),
+  ``"actor"`` -> every other ``loss_*`` term on the actor parameters,
+  ``"all"`` -> the sum of all ``loss_*`` terms on all parameters;
+* ``P``: the remaining (plain) terms, averaged over the batch as the inner loss would with ``"mean"``.
+
+:meth:`backward` writes ``.grad`` on every inner parameter: the group gets ``method(M) + d mean(P)``, the
+other parameters get the gradient of the plain mean of all terms. Subclasses implement the method either
+from the ``[K, P]`` per-task gradient matrix (:meth:`_combine`, PCGrad/CAGrad) or as per-task loss weights
+(:meth:`_task_weights`, FAMO: one backward pass). Gradients are *accumulated* into ``.grad`` like
+``Tensor.backward`` (the trainer zeroes them before each update).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torch import nn
+from torchrl.objectives import LossModule
+
+from .param_groups import PARAM_GROUPS, resolve_param_group
+from .per_task import check_task_ids, flat_task_ids, per_sample, task_counts, task_means, weighted_mean
+from .task_gradients import cosine_stats, gram, grads_or_zeros, per_task_gradients, unflatten
+
+DIAGNOSTIC_KEYS = tuple(f"grad_cos_{g}_{s}" for g in ("actor", "critic") for s in ("mean", "min", "max"))
+
+
+class TaskLosses:
+    """Per-sample terms of one inner-loss call, reduced per task and over the batch (internal helper)."""
+
+    def __init__(
+        self,
+        out: TensorDictBase,
+        task_id: torch.Tensor,
+        weights: torch.Tensor | None,
+        num_tasks: int,
+    ) -> None:
+        self.names = [k for k in out.keys() if isinstance(k, str) and k.startswith("loss_")]
+        if not self.names:
+            raise ValueError(f"the wrapped loss returned no 'loss_*' entry; keys: {list(out.keys())}")
+        n = task_id.numel()
+        self.samples = torch.stack([per_sample(out.get(k), n, k) for k in self.names], dim=-1)  # [N, T]
+        self.task_id = task_id
+        self.weights = weights
+        self.num_tasks = num_tasks
+        self.counts = task_counts(task_id, num_tasks, None if weights is None else weights.to(self.samples.dtype))
+        self.present = self.counts > 0
+        self.per_task, _ = task_means(self.samples, task_id, num_tasks, weights, self.counts)  # [K, T]
+        self.means = weighted_mean(self.samples, weights)  # [T]
+        self.metrics = out.exclude(*self.names)
+
+    def select(self, names: Sequence[str]) -> tuple[torch.Tensor | None, torch.Tensor | None]:
+        """(per-task ``[K]``, batch mean ``[]``) of the sum of the terms ``names`` (``None`` if empty)."""
+        idx = [i for i, k in enumerate(self.names) if k in names]
+        if not idx:
+            return None, None
+        return _sum_columns(self.per_task, idx), _sum_columns(self.means, idx)
+
+
+def _sum_columns(x: torch.Tensor, idx: Sequence[int]) -> torch.Tensor:
+    # integer selects (views) rather than list indexing, which would copy an index list to the device
+    out = x[..., idx[0]]
+    for i in idx[1:]:
+        out = out + x[..., i]
+    return out
+
+
+class TaskGradientWrapper(LossModule):
+    """Common machinery of :class:`PCGrad`, :class:`CAGrad`, :class:`FAMO` and :class:`GradientDiagnostics`.
+
+    Args:
+        loss_module: a TorchRL ``LossModule`` whose ``reduction="none"`` output holds per-sample ``loss_*``
+            entries (``ClipPPOLoss``, mtbench's ``MTPPOLoss``/``MTGRPOLoss``, ...). Its ``reduction`` is set to
+            ``"none"``.
+        num_tasks: K.
+        params: manipulated parameter group, ``"critic"`` (default, MTBench's PPO configs), ``"actor"`` or
+            ``"all"``.
+        diagnostics_every: compute the pairwise cosine similarities of the per-task actor and critic
+            gradients every this many updates (0 = never); see :meth:`backward`.
+        task_key: batch entry holding the task index (int64, batch-shaped, optional trailing 1).
+        critic_keys: the loss terms that belong to the critic.
+        task_loss_scale: factor applied to the per-task manipulated losses before the method (MTBench's
+            PCGrad/CAGrad per-task critic losses omit rl_games' ``0.5 * critic_coef``: use ``1 / (0.5 *
+            critic_coef)`` to reproduce their gradient scale exactly).
+    """
+
+    @dataclass
+    class _AcceptedKeys:
+        task_id: str = "task_id"
+
+    #: True for methods built on the per-task gradient matrix (PCGrad, CAGrad), False for loss weighting.
+    needs_task_gradients: bool = True
+
+    def __init__(
+        self,
+        loss_module: LossModule,
+        num_tasks: int,
+        *,
+        params: str = "critic",
+        diagnostics_every: int = 0,
+        task_key: str = "task_id",
+        critic_keys: Sequence[str] = ("loss_critic",),
+        task_loss_scale: float = 1.0,
+    ) -> None:
+        super().__init__()
+        if not isinstance(loss_module, nn.Module):
+            raise TypeError(f"loss_module must be a torch nn.Module (a TorchRL LossModule), got {type(loss_module)}")
+        if int(num_tasks) < 1:
+            raise ValueError(f"num_tasks must be >= 1, got {num_tasks}")
+        if params not in PARAM_GROUPS:
+            raise ValueError(f"unknown params group {params!r}; valid choices: {list(PARAM_GROUPS)}")
+        if int(diagnostics_every) < 0:
+            raise ValueError(f"diagnostics_every must be >= 0 (0 = off), got {diagnostics_every}")
+        if hasattr(loss_module, "reduction"):
+            loss_module.reduction = "none"
+        self.loss_module = loss_module
+        self.num_tasks = int(num_tasks)
+        self.params = params
+        self.diagnostics_every = int(diagnostics_every)
+        self.task_key = task_key
+        self.critic_keys = tuple(critic_keys)
+        self.task_loss_scale = float(task_loss_scale)
+        self.num_updates = 0
+        resolve_param_group(loss_module, params)  # validates that the group exists
+        self._diag_groups: list[str] = []
+        if self.diagnostics_every:
+            for g in ("actor", "critic"):
+                try:
+                    resolve_param_group(loss_module, g)
+                    self._diag_groups.append(g)
+                except ValueError:
+                    pass
+            if not self._diag_groups:
+                raise ValueError(
+                    f"diagnostics need an actor and/or a critic network in {type(loss_module).__name__}; found none"
+                )
+        self._last_diagnostics: dict[str, torch.Tensor] = {}
+
+    # ------------------------------------------------------------------ delegation to the inner loss
+    @property
+    def tensor_keys(self) -> Any:
+        return self.loss_module.tensor_keys
+
+    def set_keys(self, **kwargs: Any) -> None:
+        """Set the inner loss's tensordict keys (``task_id`` sets this wrapper's task key)."""
+        if "task_id" in kwargs:
+            self.task_key = kwargs.pop("task_id")
+        if kwargs:
+            self.loss_module.set_keys(**kwargs)
+
+    def make_value_estimator(self, *args: Any, **kwargs: Any) -> Any:
+        return self.loss_module.make_value_estimator(*args, **kwargs)
+
+    @property
+    def value_estimator(self) -> Any:
+        return self.loss_module.value_estimator
+
+    @value_estimator.setter
+    def value_estimator(self, value: Any) -> None:
+        self.loss_module.value_estimator = value
+
+    # ------------------------------------------------------------------ loss terms
+    def _group_term_names(self, group: str, names: Sequence[str]) -> list[str]:
+        if group == "all":
+            return list(names)
+        if group == "critic":
+            return [k for k in names if k in self.critic_keys]
+        return [k for k in names if k not in self.critic_keys]
+
+    def _sample_weights(self, td: TensorDictBase, numel: int) -> torch.Tensor | None:
+        keys_fn = getattr(self.loss_module, "_loss_mask_keys", None)
+        if not callable(keys_fn):
+            return None
+        mask = None
+        for key in keys_fn():
+            m = td.get(key, None)
+            if m is None:
+                continue
+            m = m.reshape(-1)
+            if m.numel() != numel:
+                raise ValueError(f"loss mask {key!r} has {m.numel()} entries for {numel} samples")
+            m = m.bool()
+            mask = m if mask is None else mask & m
+        return mask
+
+    def _task_losses(self, td: TensorDictBase) -> TaskLosses:
+        task_id = td.get(self.task_key, None)
+        if task_id is None:
+            raise KeyError(f"{type(self).__name__}: the batch has no {self.task_key!r} entry (per-sample task index)")
+        out = self.loss_module(td)
+        numel = task_id.numel()
+        ids = flat_task_ids(task_id, numel)
+        weights = self._sample_weights(td, numel)
+        if weights is not None:
+            ids = torch.where(weights, ids, torch.zeros_like(ids))  # padded rows may hold garbage ids
+        check_task_ids(ids, self.num_tasks)
+        losses = TaskLosses(out, ids, weights, self.num_tasks)
+        if self.params == "critic" and not any(k in self.critic_keys for k in losses.names):
+            raise ValueError(
+                f"params='critic' needs a critic term {list(self.critic_keys)} in the loss output; "
+                f"got {losses.names} (use params='actor' or 'all', or set critic_keys)"
+            )
+        return losses
+
+    def _metrics(self, losses: TaskLosses, *, detach: bool) -> TensorDict:
+        out = TensorDict({}, batch_size=[])
+        for i, name in enumerate(losses.names):
+            mean = losses.means[i]
+            out.set(name, mean.detach() if detach else mean)
+        for key, value in losses.metrics.items():
+            if isinstance(value, torch.Tensor):
+                value = value.detach()
+                out.set(key, value.float().mean() if value.numel() != 1 else value.reshape(()))
+            elif isinstance(value, TensorDictBase):
+                out.set(key, value.detach().apply(lambda x: x.float().mean(), batch_size=[]))
+        for i, name in enumerate(losses.names):
+            out.set(f"task_{name}", losses.per_task[:, i].detach())
+        out.set("task_count", losses.counts.detach())
+        return out
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        """Inner loss terms reduced to batch means (differentiable ``loss_*``), the inner metrics, and
+        per-task ``task_loss_*`` ``[K]`` means and ``task_count`` ``[K]`` (detached)."""
+        out = self._metrics(self._task_losses(tensordict), detach=False)
+        for key, value in self._extra_metrics().items():
+            out.set(key, value)
+        return out
+
+    # ------------------------------------------------------------------ method hooks
+    def _combine(self, grads: torch.Tensor, gram_matrix: torch.Tensor, present: torch.Tensor) -> torch.Tensor:
+        """Manipulated gradient ``[P]`` from the per-task gradient matrix ``[K, P]`` (PCGrad, CAGrad)."""
+        raise NotImplementedError
+
+    def _group_loss(self, task_losses: torch.Tensor, batch_mean: torch.Tensor, present: torch.Tensor) -> torch.Tensor:
+        """Scalar loss whose gradient is the group's update, for methods without per-task gradients (FAMO:
+        a weighted sum of ``task_losses [K]``; diagnostics only: ``batch_mean``)."""
+        raise NotImplementedError
+
+    def _extra_metrics(self) -> dict[str, torch.Tensor]:
+        return {}
+
+    # ------------------------------------------------------------------ backward
+    def _diagnostics_due(self) -> bool:
+        return self.diagnostics_every > 0 and self.num_updates % self.diagnostics_every == 0
+
+    def backward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        """Run the inner loss on ``tensordict``, accumulate the manipulated gradients into ``.grad`` of all
+        inner parameters, and return detached metrics: ``loss_*`` batch means, the inner metrics,
+        ``task_loss_*``/``task_count`` (``[K]``), method metrics, and -- when diagnostics are on -- the
+        scalars ``grad_cos_{actor,critic}_{mean,min,max}`` (most recent measurement, refreshed every
+        ``diagnostics_every`` updates, so the metric keys are the same at every update)."""
+        losses = self._task_losses(tensordict)
+        manip_names = self._group_term_names(self.params, losses.names)
+        plain_names = [k for k in losses.names if k not in manip_names]
+        m_task, m_mean = losses.select(manip_names)
+        _, p_mean = losses.select(plain_names)
+        if m_task is None:
+            raise ValueError(f"no loss term to manipulate for params={self.params!r}; loss terms: {losses.names}")
+        m_task = m_task * self.task_loss_scale
+        present = losses.present
+
+        reuse: torch.Tensor | None = None  # per-task gradient matrix of the manipulated group, if computed
+        if self._diagnostics_due():
+            reuse = self._diagnostics(losses, present)
+
+        # resolved at every call: .to()/load_state_dict on TensorDictParams may replace Parameter objects
+        group = resolve_param_group(self.loss_module, self.params)
+        ids = {id(p) for p in group}
+        rest = [p for p in resolve_param_group(self.loss_module, "all") if id(p) not in ids]
+        if self.needs_task_gradients:
+            if reuse is None:
+                reuse = per_task_gradients(m_task, group)
+            direction = self._combine(reuse, gram(reuse), present)
+            grads_group = [a + b for a, b in zip(grads_or_zeros(p_mean, group), unflatten(direction, group))]
+        else:
+            target = self._group_loss(m_task, m_mean, present)
+            target = target if p_mean is None else target + p_mean
+            grads_group = grads_or_zeros(target, group, retain_graph=bool(rest))
+        if rest:
+            plain = m_mean if p_mean is None else m_mean + p_mean
+            grads_rest = grads_or_zeros(plain, rest, retain_graph=False)
+        else:
+            grads_rest = []
+        for p, g in zip([*group, *rest], [*grads_group, *grads_rest]):
+            g = g.to(p.dtype)
+            if p.grad is None:
+                p.grad = g.clone() if g._base is not None else g
+            else:
+                p.grad.add_(g)
+        self.num_updates += 1
+        metrics = self._metrics(losses, detach=True)
+        for key, value in {**self._last_diagnostics, **self._extra_metrics()}.items():
+            metrics.set(key, value)
+        return metrics
+
+    def _diagnostics(self, losses: TaskLosses, present: torch.Tensor) -> torch.Tensor | None:
+        """Cosine statistics of the per-task actor/critic gradients; returns the manipulated group's
+        gradient matrix when it coincides with one of them (so it is not computed twice)."""
+        reuse = None
+        for g in self._diag_groups:
+            per_task, _ = losses.select(self._group_term_names(g, losses.names))
+            params = resolve_param_group(self.loss_module, g)
+            if per_task is None:
+                stats = torch.full((3,), float("nan"), device=present.device)
+            else:
+                grads = per_task_gradients(per_task, params)
+                stats = cosine_stats(gram(grads), present)
+                if self.needs_task_gradients and self.params == g:
+                    reuse = grads * self.task_loss_scale
+            for name, value in zip(("mean", "min", "max"), stats.unbind(0)):
+                self._last_diagnostics[f"grad_cos_{g}_{name}"] = value.detach()
+        return reuse
