@@ -240,3 +240,17 @@ def test_clipped_value_loss_entropy_bounds_and_reductions() -> None:
 def test_invalid_reduction_names_choices() -> None:
     with pytest.raises(ValueError, match="valid choices"):
         MTPPOLoss(_actor(4, 2), _feature0_critic(4), num_tasks=2, reduction="avg")
+
+
+def test_kl_metric_is_the_analytic_kl_to_the_behaviour_policy() -> None:
+    actor = _actor(4, 2, bias=[1.5, -2.0])
+    loss = MTPPOLoss(actor, _feature0_critic(4), num_tasks=2)
+    td = _flat_batch(loss, torch.tensor([0, 1, 0, 1]), 4)
+    assert loss(td)["kl"].item() == pytest.approx(0.0, abs=1e-4)
+    head = actor.module[0].module
+    with torch.no_grad():
+        head.net.lin.bias += torch.tensor([0.3, 0.0])
+        head.log_std.fill_(math.log(1.2))
+    # KL(new || old) per dim: log(s_old / s_new) + (s_new^2 + (mu_new - mu_old)^2) / (2 s_old^2) - 1/2
+    expected = 2 * math.log(1 / 1.2) + (1.44 + 0.09) / 2 - 0.5 + 1.44 / 2 - 0.5
+    assert loss(td)["kl"].item() == pytest.approx(expected, abs=1e-4)

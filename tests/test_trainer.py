@@ -168,3 +168,35 @@ def test_checkpoint_file_is_atomic_and_versioned(tmp_path: Path) -> None:
     save_checkpoint(tmp_path / "bad.pt", {"version": 99})
     with pytest.raises(ValueError, match="version"):
         load_checkpoint(tmp_path / "bad.pt")
+
+
+def test_cpu_default_overrides() -> None:
+    from mtbench.trainer.run import cpu_default_overrides
+
+    assert cpu_default_overrides([], cuda_available=False) == ["env=cpu_small"]
+    assert cpu_default_overrides(["loss=grpo"], cuda_available=False) == ["env=cpu_small"]
+    assert cpu_default_overrides([], cuda_available=True) == []
+    assert cpu_default_overrides(["device=cpu"], cuda_available=True) == ["env=cpu_small"]
+    assert cpu_default_overrides(["env=mt10_rand"], cuda_available=False) == []
+    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
+        cfg = compose("config", overrides=["env=cpu_small"])
+    assert cfg.env.name == "mt10_rand" and cfg.loss.minibatch_size == 320 and cfg.max_iterations == 150
+    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
+        grpo = compose("config", overrides=["env=mt10_rand", "loss=grpo"])
+    assert (grpo.env.num_envs, grpo.loss.horizon, grpo.loss.minibatch_size, grpo.max_iterations) == (4096, 150, 38400, 1908)
+
+
+def test_run_front_door_logs_to_mcap_and_resume_appends(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from mtbench.logging import read_hparams, read_scalars
+    from mtbench.trainer.run import run
+
+    overrides = ["max_iterations=2", "checkpoint.every=1", f"logging.log_dir={tmp_path / 'runs'}", "logging.exp_name=t"]
+    trainer = run(_cfg(tmp_path, *overrides), env=_env())
+    out = capsys.readouterr().out
+    assert "Per-task success" in out and "task2" in out and trainer.iteration == 2
+    resumed = run(_cfg(tmp_path, *overrides, "max_iterations=3", f"resume={tmp_path / 'ckpt' / 'ckpt_000002.pt'}"), env=_env())
+    assert resumed.iteration == 3
+    scalars = read_scalars(tmp_path / "runs")
+    assert [step for step, _ in scalars["frames"]] == [96, 192, 288]
+    assert "success/mean" in scalars and "success/task0" in scalars and "loss/critic" in scalars
+    assert read_hparams(tmp_path / "runs")["loss.name"] == "ppo"

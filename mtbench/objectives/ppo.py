@@ -147,6 +147,9 @@ class MTClipPPOBase(ClipPPOLoss):
         if advantage.ndim == td.batch_dims:
             advantage = advantage.unsqueeze(-1)
         task_id = self._task_ids(td)
+        # behaviour-policy parameters, read before the actor re-writes loc/scale into ``td``
+        old_loc = td.get(self.loc_key, None)
+        old_scale = td.get(self.scale_key, None)
         if self.per_task_advantage_norm:
             advantage = per_task_standardize(advantage, task_id, self.num_tasks, eps=self.advantage_eps)
 
@@ -178,8 +181,6 @@ class MTClipPPOBase(ClipPPOLoss):
             metrics["clip_fraction"] = (log_weight_clip != log_weight).float().mean()
             metrics["kl_approx"] = kl_approx.mean()
             metrics["ratio_mean"] = ratio.mean()
-            old_loc = td.get(self.loc_key, None)
-            old_scale = td.get(self.scale_key, None)
             if old_loc is not None and old_scale is not None:
                 metrics["kl"] = gaussian_policy_kl(mu, dist.stddev, old_loc, old_scale)
             else:

@@ -47,9 +47,13 @@ def make_env_from_cfg(env_cfg: Mapping[str, Any], device: torch.device, seed: in
         from ..envs import make_env
     except ImportError as err:  # the physics env is optional for tests that pass their own env
         raise ImportError(f"mtbench.envs.make_env is not available ({err}); pass env= to Trainer") from err
-    overrides = OmegaConf.to_container(env_cfg.get("overrides") or {}, resolve=True) if isinstance(
-        env_cfg, DictConfig
-    ) else dict(env_cfg.get("overrides") or {})
+    raw = env_cfg.get("overrides")
+    if raw is None:
+        overrides: dict[str, Any] = {}
+    elif OmegaConf.is_config(raw):
+        overrides = dict(OmegaConf.to_container(raw, resolve=True))  # type: ignore[arg-type]
+    else:
+        overrides = dict(raw)
     name = env_cfg["name"]
     if isinstance(name, (list, tuple)) or OmegaConf.is_list(name):
         name = list(name)
@@ -285,7 +289,16 @@ class Trainer:
         return out
 
     # ------------------------------------------------------------------ iteration
-    def _optimise(self, data: TensorDictBase) -> dict[str, torch.Tensor]:
+    def collect(self) -> tuple[TensorDictBase, TensorDictBase]:
+        """One ``[num_envs, horizon]`` rollout and the per-task episode statistics finished during it."""
+        data = next(self._iterator)
+        return data, self.base_env.pop_episode_stats()
+
+    def update(self, data: TensorDictBase) -> dict[str, torch.Tensor]:
+        """Advantages + ``epochs`` x ``num_minibatches`` optimisation steps on a collected rollout.
+
+        Returns per-update means of the scalar metrics (device tensors, no host sync) and ``skipped`` (count).
+        """
         batch = self.loss.compute_advantage(data)
         batch = batch.select(*self.loss.batch_keys).reshape(-1)
         sums: dict[str, torch.Tensor] = {}
@@ -307,15 +320,14 @@ class Trainer:
     def train_iteration(self) -> dict[str, float]:
         """Collect one batch, update, and return this iteration's scalar metrics."""
         t0 = time.perf_counter()
-        data = next(self._iterator)
-        stats = self.base_env.pop_episode_stats()
+        data, stats = self.collect()
+        self.window.push(stats)  # device -> host copy: also ends the collection timing on GPU
         t1 = time.perf_counter()
-        means = self._optimise(data)
+        means = self.update(data)
         # the only host sync of the update: all metrics at once
         names = list(means)
         values = torch.stack([means[k] for k in names]).tolist() if names else []
         t2 = time.perf_counter()
-        self.window.push(stats)
         self.iteration += 1
         self.frames += self.frames_per_batch
         metrics = dict(zip(names, values))
@@ -471,10 +483,18 @@ class Trainer:
         if carrier is not None and getattr(self.collector, "_carrier", None) is not None:
             self.collector._carrier.update(carrier.to(self.collector._carrier.device))
         self.window.load_state_dict(state["window"])
-        if self.logger is not None and state.get("logger") is not None and hasattr(self.logger, "_load_checkpoint_state"):
-            self.logger._load_checkpoint_state(state["logger"])
+        self._resume_logger_state = state.get("logger")
+        if self.logger is not None:
+            self.set_logger(self.logger)
         set_rng_state(state["rng"])
         self._hparams_logged = True
+
+    def set_logger(self, logger: Any) -> None:
+        """Attach a torchrl ``Logger`` (restores its counters when this run was resumed from a checkpoint)."""
+        self.logger = logger
+        state = getattr(self, "_resume_logger_state", None)
+        if logger is not None and state is not None and hasattr(logger, "_load_checkpoint_state"):
+            logger._load_checkpoint_state(state)
 
     def close(self) -> None:
         """Shut the collector down (closes the env)."""
