@@ -642,3 +642,60 @@ def test_wrappers_on_mtbench_mt_ppo_loss():
         assert all(metrics[key].shape == () for key in DIAGNOSTIC_KEYS)
         assert torch.allclose(grads_of(actor_params), plain_actor, atol=1e-6)  # params="critic"
         assert all(p.grad is not None and torch.isfinite(p.grad).all() for p in loss.parameters())
+
+
+class _QuadraticLoss(LossModule):
+    """Sync-free per-sample actor/critic loss (TorchRL's TanhNormal itself converts tensors to bools)."""
+
+    def __init__(self):
+        super().__init__()
+        torch.manual_seed(0)
+        self.actor_network = nn.Sequential(nn.Linear(OBS, 8), nn.Tanh(), nn.Linear(8, ACT))
+        self.critic_network = nn.Sequential(nn.Linear(OBS, 8), nn.Tanh(), nn.Linear(8, 1))
+        self.reduction = "mean"
+
+    def forward(self, td):
+        obs = td["observation"]
+        terms = {
+            "loss_objective": -(self.actor_network(obs) * td["advantage"]).sum(-1),
+            "loss_critic": (self.critic_network(obs) - td["value_target"]).pow(2).squeeze(-1),
+        }
+        if self.reduction == "mean":
+            terms = {k: v.mean() for k, v in terms.items()}
+        return TensorDict(terms, batch_size=[])
+
+
+@pytest.mark.parametrize("method", ["none", "pcgrad", "cagrad", "famo"])
+def test_backward_has_no_host_sync(monkeypatch, method):
+    """No tensor -> Python conversion in the wrappers' backward (the calls that would sync a GPU)."""
+    import mtbench.objectives.task_wrapper as tw
+
+    loss = _QuadraticLoss()
+    ids = torch.tensor([0, 2] * 10)  # task 1 absent
+    sign = torch.where(ids == 2, -1.0, 1.0)[:, None]  # conflicting critic targets
+    td = TensorDict(
+        {
+            "observation": torch.randn(20, OBS),
+            "task_id": ids,
+            "advantage": torch.randn(20, 1),
+            "value_target": 3.0 * sign + torch.randn(20, 1),
+        },
+        [20],
+    )
+    module = make_gradient_method(method, loss, 3, diagnostics_every=1)
+    monkeypatch.setattr(tw, "check_task_ids", lambda *a, **k: None)  # the CPU-only id check
+
+    def forbidden(name):
+        def fail(self, *args, **kwargs):
+            raise AssertionError(f"host sync: Tensor.{name}")
+
+        return fail
+
+    for name in ("item", "tolist", "__bool__", "__int__", "__float__", "__index__", "nonzero"):
+        monkeypatch.setattr(torch.Tensor, name, forbidden(name))
+    monkeypatch.setattr(torch, "nonzero", forbidden("nonzero"))
+    for _ in range(2):
+        metrics = module.backward(td)
+    monkeypatch.undo()
+    assert all(torch.isfinite(p.grad).all() for p in loss.parameters())
+    assert torch.isfinite(metrics["grad_cos_critic_mean"])

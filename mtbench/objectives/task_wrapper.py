@@ -47,7 +47,11 @@ class TaskLosses:
         if not self.names:
             raise ValueError(f"the wrapped loss returned no 'loss_*' entry; keys: {list(out.keys())}")
         n = task_id.numel()
-        self.samples = torch.stack([per_sample(out.get(k), n, k) for k in self.names], dim=-1)  # [N, T]
+        terms = [per_sample(out.get(k), n, k) for k in self.names]
+        dtype = terms[0].dtype
+        for t in terms[1:]:
+            dtype = torch.promote_types(dtype, t.dtype)
+        self.samples = torch.stack([t.to(dtype) for t in terms], dim=-1)  # [N, T]
         self.task_id = task_id
         self.weights = weights
         self.num_tasks = num_tasks
