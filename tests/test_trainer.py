@@ -200,3 +200,12 @@ def test_run_front_door_logs_to_mcap_and_resume_appends(tmp_path: Path, capsys: 
     assert [step for step, _ in scalars["frames"]] == [96, 192, 288]
     assert "success/mean" in scalars and "success/task0" in scalars and "loss/critic" in scalars
     assert read_hparams(tmp_path / "runs")["loss.name"] == "ppo"
+
+
+@pytest.mark.parametrize("grad", ["pcgrad", "cagrad", "famo", "none"])
+def test_gradient_methods_plug_into_the_trainer(tmp_path: Path, grad: str) -> None:
+    trainer = Trainer(_cfg(tmp_path, f"grad={grad}", "grad.diagnostics_every=1", "max_iterations=1"), env=_env())
+    assert trainer.update_module is not trainer.loss  # diagnostics_every > 0 wraps even grad=none
+    metrics = trainer.train_iteration()
+    assert metrics["train/skipped_updates"] == 0 and math.isfinite(metrics["loss/critic"])
+    assert -1.0 <= metrics["train/grad_cos_critic_mean"] <= 1.0

@@ -15,7 +15,7 @@ from tensordict import TensorDictBase
 from torchrl.collectors import Collector
 from torchrl.envs import EnvBase, TransformedEnv
 
-from ..objectives import compute_gradients
+from ..objectives import compute_gradients, make_gradient_method
 from ..objectives.gradients import total_loss
 from ..objectives.grpo import MTGRPOLoss
 from ..objectives.ppo import MTClipPPOBase, MTPPOLoss
@@ -230,18 +230,12 @@ class Trainer:
 
     # ------------------------------------------------------------------ construction helpers
     def _make_update_module(self, grad_cfg: Mapping[str, Any] | None) -> torch.nn.Module:
-        name = "none" if grad_cfg is None else str(grad_cfg.get("name", "none"))
-        if name == "none":
+        """``make_gradient_method(grad.name, loss, num_tasks, **grad)``: the loss itself for ``grad=none`` (or a
+        diagnostics wrapper when ``diagnostics_every > 0``), else the PCGrad / CAGrad / FAMO wrapper."""
+        if grad_cfg is None:
             return self.loss
-        try:
-            from ..objectives import make_gradient_method
-        except ImportError as err:
-            raise ValueError(
-                f"grad={name!r} needs mtbench.objectives.make_gradient_method, which is not available; "
-                "valid choices here: ['none']"
-            ) from err
-        kwargs = OmegaConf.to_container(grad_cfg, resolve=True) if isinstance(grad_cfg, DictConfig) else dict(grad_cfg)
-        kwargs.pop("name", None)
+        kwargs = OmegaConf.to_container(grad_cfg, resolve=True) if OmegaConf.is_config(grad_cfg) else dict(grad_cfg)
+        name = str(kwargs.pop("name", "none"))
         return make_gradient_method(name, self.loss, self.num_tasks, **kwargs)
 
     def _compile_networks(self, mode: str | None) -> None:
@@ -474,13 +468,16 @@ class Trainer:
         self.optimizer.param_groups[0]["lr"] = self.lr
         if self.obs_norm is not None and state.get("obs_norm") is not None:
             self.obs_norm.load_state_dict(state["obs_norm"])
+        env_restored = False
         if state.get("env"):
             try:
                 self.base_env.load_state_dict(state["env"])
+                env_restored = True
             except (RuntimeError, KeyError) as err:
                 warnings.warn(f"could not restore the env state ({err}); the env continues from a fresh reset")
         carrier = state.get("carrier")
-        if carrier is not None and getattr(self.collector, "_carrier", None) is not None:
+        # the carried observations only match the env if its state was restored too
+        if env_restored and carrier is not None and getattr(self.collector, "_carrier", None) is not None:
             self.collector._carrier.update(carrier.to(self.collector._carrier.device))
         self.window.load_state_dict(state["window"])
         self._resume_logger_state = state.get("logger")
