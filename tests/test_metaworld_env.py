@@ -68,6 +68,19 @@ def test_autoreset_episode_length_and_statistics() -> None:
     assert env.pop_episode_stats()["episodes"].tolist() == [0.0]  # popped
 
 
+def test_torchrl_native_autoreset_path_is_used() -> None:
+    """TorchRL takes the native path (terminal next-obs NaN-filled, no second reset of finished worlds)."""
+    env = make_env("reach", num_envs=2, device="cpu", seed=0, episode_length=3, random_start_progress=False)
+    td = env.reset()
+    for t in range(3):
+        td["action"] = torch.zeros(2, 4)
+        out, td = env.step_and_maybe_reset(td)
+    assert out["next", "done"].all()
+    assert torch.isnan(out["next", "observation"]).all()  # native path marks the terminal obs invalid
+    assert torch.isfinite(td["observation"]).all() and not td["done"].any()
+    assert torch.equal(env._step_count, torch.zeros(2, dtype=torch.long))  # reset exactly once
+
+
 def test_random_start_progress_skips_partial_first_episodes() -> None:
     env = make_env("reach", num_envs=16, device="cpu", seed=3, episode_length=20)
     _, _, dones = _run(env, _random_actions(env, 30, 1))

@@ -86,6 +86,8 @@ class MetaWorldEnv(EnvBase):
         num_envs = sum(counts)
         warp_device(device)  # clear error for an unavailable device, before torch touches it
         super().__init__(device=device, batch_size=torch.Size([num_envs]))
+        # TorchRL looks the flag up on the instance: without it, it would reset finished worlds a second time
+        self.__dict__["_torchrl_native_autoreset"] = True
         dev = self.device
         self.task_names = tasks
         self.task_counts = counts
