@@ -15,4 +15,4 @@ from .task import MetaWorldTask
 def compiled_task(name: str) -> tuple[type[MetaWorldTask], mujoco.MjModel]:
     """``(task class, compiled MjModel)`` for the task ``name``."""
     cls = task_class(name)
-    return cls, build_scene(cls.scene)
+    return cls, build_scene(cls.scene, edit_spec=cls.edit_spec)

@@ -4,6 +4,7 @@ the Menagerie Panda attached, driven through a mocap weld. Pure MuJoCo (``MjSpec
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import mujoco
 import numpy as np
@@ -50,11 +51,13 @@ def _strip_sawyer(spec: mujoco.MjSpec) -> None:
             spec.delete(geom)
 
 
-def build_scene(scene: SceneSpec) -> mujoco.MjModel:
+def build_scene(scene: SceneSpec, edit_spec: Callable[[mujoco.MjSpec], None] | None = None) -> mujoco.MjModel:
     """Compile the task scene with the Panda at ``ROBOT_BASE_POS`` and the arm settled so that the TCP is at
     ``scene.hand_init_pos`` (stored as the ``home`` keyframe, with the mocap body at the matching hand pose)."""
     spec = mujoco.MjSpec.from_file(str(metaworld_assets_dir() / "sawyer_xyz" / scene.xml))
     _strip_sawyer(spec)
+    if edit_spec is not None:  # task-specific model edits (e.g. stiffer joint limits of a fixture)
+        edit_spec(spec)
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
     spec.option.timestep = TIMESTEP
     spec.option.iterations = SOLVER_ITERATIONS

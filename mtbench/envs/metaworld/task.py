@@ -65,6 +65,10 @@ class MetaWorldTask:
     dense_scale: ClassVar[float] = 0.01
     success_bonus: ClassVar[float] = 10.0
 
+    @classmethod
+    def edit_spec(cls, spec: mujoco.MjSpec) -> None:
+        """Optional task-specific edits of the scene spec before compilation (default: none)."""
+
     def __init__(self, model: mujoco.MjModel, device: torch.device | str = "cpu") -> None:
         self.model = model
         self.device = torch.device(device)
