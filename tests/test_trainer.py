@@ -209,3 +209,26 @@ def test_gradient_methods_plug_into_the_trainer(tmp_path: Path, grad: str) -> No
     metrics = trainer.train_iteration()
     assert metrics["train/skipped_updates"] == 0 and math.isfinite(metrics["loss/critic"])
     assert -1.0 <= metrics["train/grad_cos_critic_mean"] <= 1.0
+
+
+def test_sigterm_finishes_the_iteration_checkpoints_and_resume_continues(tmp_path: Path) -> None:
+    """A SIGTERM in the middle of a run loses nothing: the run stops after the iteration in flight, writes a
+    checkpoint, and a resumed run continues from exactly there."""
+    import os
+    import signal
+
+    class KillAtIteration2(RecordingLogger):
+        def log_metrics(self, metrics, step=None):
+            super().log_metrics(metrics, step)
+            if len(self.metrics) == 2:
+                os.kill(os.getpid(), signal.SIGTERM)
+
+    trainer = Trainer(_cfg(tmp_path, "max_iterations=5"), env=_env(), logger=KillAtIteration2())
+    history = trainer.train()
+    assert len(history) == 2 and trainer.iteration == 2
+    ckpt = tmp_path / "ckpt" / "ckpt_000002.pt"
+    assert ckpt.exists() and not (tmp_path / "ckpt" / "final.pt").exists()
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # handler restored
+    resumed = Trainer(_cfg(tmp_path, "max_iterations=5", f"resume={ckpt}"), env=_env())
+    assert resumed.iteration == 2 and resumed.frames == trainer.frames
+    assert len(resumed.train()) == 3 and resumed.iteration == 5

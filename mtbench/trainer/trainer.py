@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 import os
+import signal
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -374,8 +376,9 @@ class Trainer:
             self.logger.log_hparams(self.cfg)
             self._hparams_logged = True
         history: list[dict[str, float]] = []
+        stop = _StopRequest()
         try:
-            while self.iteration < self.total_iterations:
+            while self.iteration < self.total_iterations and not stop.requested:
                 metrics = self.train_iteration()
                 history.append(metrics)
                 self.history.append(metrics)
@@ -389,6 +392,12 @@ class Trainer:
                     self.save(self.checkpoint_dir / f"ckpt_{self.iteration:06d}.pt")
         finally:
             display.close()
+            stop.restore()
+        if stop.requested:
+            # SIGINT/SIGTERM: the iteration in flight was finished; keep everything up to it
+            path = self.save(self.checkpoint_dir / f"ckpt_{self.iteration:06d}.pt")
+            print(f"stopped by signal {stop.signum} after iteration {self.iteration}; checkpoint: {path}", flush=True)
+            return history
         if self.checkpoint_final and history:
             self.save(self.checkpoint_dir / "final.pt")
         return history
@@ -510,3 +519,27 @@ def _default_output_dir() -> Path:
 
 
 __all__ = ["LOSSES", "LR_SCHEDULES", "Trainer", "make_env_from_cfg", "resolve_device"]
+
+
+class _StopRequest:
+    """SIGINT/SIGTERM handler for the training loop: the first signal asks the loop to stop after the current
+    iteration (which is then checkpointed); a second SIGINT interrupts immediately."""
+
+    def __init__(self) -> None:
+        self.requested = False
+        self.signum: int | None = None
+        self._previous: dict[int, Any] = {}
+        if threading.current_thread() is not threading.main_thread():
+            return
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self._previous[sig] = signal.signal(sig, self._handle)
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        if self.requested and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.requested, self.signum = True, signum
+
+    def restore(self) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        self._previous.clear()
