@@ -100,6 +100,7 @@ class WarpSim:
         if self.device.type == "cuda" and self.device.index is None:
             self.device = torch.device(self.wp_device)
         self.use_graph = use_graph
+        self.batched_fields = tuple(batched_fields)
         self._has_key = mjm.nkey > 0
         if self._has_key and not 0 <= reset_key < mjm.nkey:
             raise ValueError(f"reset_key {reset_key} out of range for a model with {mjm.nkey} keyframes")
@@ -133,6 +134,7 @@ class WarpSim:
         self.site_xpos = wp.to_torch(d.site_xpos)
         self.time = wp.to_torch(d.time)
         self._overflow = wp.to_torch(d.overflow)
+        self._static_geoms = self._static_geom_table()
         self._graphs: dict[str, object] = {}
         # True while an enclosing whole-step torch CUDA graph is being captured: run Warp work inline
         self.inline_mode = False
@@ -250,6 +252,67 @@ class WarpSim:
         with self._on_own_stream():
             self._run("kin", self._kinematics_impl)
 
+    _STATE_FIELDS = ("qpos", "qvel", "act", "ctrl", "mocap_pos", "mocap_quat", "qacc", "qacc_warmstart", "time",
+                     "geom_xpos")
+
+    def get_state(self) -> dict[str, torch.Tensor]:
+        """Copy of the simulation state of every world (enough to continue the same trajectory) and of the
+        per-world model fields."""
+        state = {f: wp.to_torch(getattr(self.data, f)).clone() for f in self._STATE_FIELDS}
+        for name in self.batched_fields:
+            state[f"model.{name}"] = self.model_field(name).clone()
+        return state
+
+    def set_state(self, state: dict[str, torch.Tensor]) -> None:
+        """Restore a :meth:`get_state` copy (same model and ``nworld``) and recompute kinematics."""
+        for key, value in state.items():
+            dst = self.model_field(key[6:]) if key.startswith("model.") else wp.to_torch(getattr(self.data, key))
+            if dst.shape != value.shape:
+                raise ValueError(f"sim state {key!r}: shape {tuple(value.shape)} does not match {tuple(dst.shape)}")
+            dst.copy_(value.to(dst.device))
+        self.kinematics()
+
+    def set_body_pos(self, body: int, pos: torch.Tensor, mask: torch.Tensor) -> None:
+        """Move a body that is fixed to the world (no joint on its path to the world) to ``pos`` ``[nworld, 3]``
+        in the worlds of ``mask``; needs ``"body_pos"`` in ``batched_fields``.
+
+        MuJoCo Warp computes the positions of world-fixed geoms once, when the data is made, so besides the
+        per-world ``body_pos`` this also translates those geoms in the body's subtree (orientation unchanged).
+        Jointed children, sites and the body frame follow through kinematics.
+        """
+        if "body_pos" not in self.batched_fields:
+            raise ValueError("set_body_pos needs batched_fields=('body_pos', ...) when the WarpSim is created")
+        field = self.model_field("body_pos")[:, body]
+        field.copy_(torch.where(mask[:, None], pos, field))
+        ids, offsets = self._static_geoms[body]
+        if ids.numel():  # shape metadata, no device sync
+            geom_xpos = self.geom_xpos
+            current = geom_xpos.index_select(1, ids)
+            geom_xpos.index_copy_(1, ids, torch.where(mask[:, None, None], pos[:, None, :] + offsets, current))
+
+    def _static_geom_table(self) -> dict[int, tuple[torch.Tensor, torch.Tensor]]:
+        """For every world-fixed body: its subtree's world-fixed geoms and their offsets from the body."""
+        m = self.mjm
+        d = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, d)
+        table = {}
+        for body in range(1, m.nbody):
+            if m.body_weldid[body] != 0:
+                continue
+            ids = [g for g in range(m.ngeom)
+                   if m.body_weldid[m.geom_bodyid[g]] == 0 and _in_subtree(m, int(m.geom_bodyid[g]), body)]
+            table[body] = (
+                torch.tensor(ids, dtype=torch.long, device=self.device),
+                torch.tensor(d.geom_xpos[ids] - d.xpos[body], dtype=torch.float32, device=self.device).reshape(-1, 3),
+            )
+        return table
+
+    @property
+    def geom_xpos(self) -> torch.Tensor:
+        """Zero-copy view ``[nworld, ngeom, 3]`` of geom positions (MuJoCo Warp computes those of geoms fixed to
+        the world once; moving such a body per world must move them too: see ``mtbench.sim.static_geoms``)."""
+        return wp.to_torch(self.data.geom_xpos)
+
     def unhealthy(self, max_abs_qvel: float = 1e4) -> torch.Tensor:
         """Bool ``[nworld]``: non-finite state, runaway velocities, or contact/constraint buffer overflow."""
         bad = ~torch.isfinite(self.qpos).all(-1) | ~torch.isfinite(self.qvel).all(-1)
@@ -261,6 +324,14 @@ class WarpSim:
         if self.stream is None:
             return _null()
         return _StreamJoin(self.stream)
+
+
+def _in_subtree(m: mujoco.MjModel, body: int, root: int) -> bool:
+    while body != 0:
+        if body == root:
+            return True
+        body = int(m.body_parentid[body])
+    return root == 0
 
 
 class _null:

@@ -336,6 +336,48 @@ class MetaWorldEnv(EnvBase):
     def _set_seed(self, seed: int | None) -> None:
         self._generator.manual_seed(0 if seed is None else int(seed))
 
+    # ------------------------------------------------------------------ checkpointing
+    _EPISODE_STATE = ("_step_count", "_ep_return", "_ep_success", "_ep_counted", "_prev_frame", "_vec_sampled",
+                      "_stats")
+    _TASK_STATE = ("goal", "obj_init_pos", "init_tcp", "init_left_pad", "init_right_pad")
+
+    def get_extra_state(self) -> dict:
+        """Everything needed to continue the exact same trajectories: episode bookkeeping, the reset sampler's
+        RNG, per-task buffers and every block's physics state (included in ``env.state_dict()``)."""
+        blocks = []
+        for b, (task, s) in enumerate(self.blocks):
+            blocks.append({
+                "sim": s.sim.get_state(),
+                "task": {k: getattr(s, k).clone() for k in self._TASK_STATE},
+                "extra": {k: v.clone() for k, v in s.extra.items()},
+                "reset_vec": self._reset_vec[b].clone(),
+            })
+        return {
+            "task_names": list(self.task_names),
+            "task_counts": list(self.task_counts),
+            "episode": {k: getattr(self, k).clone() for k in self._EPISODE_STATE},
+            "generator": self._generator.get_state(),
+            "blocks": blocks,
+        }
+
+    def set_extra_state(self, state: dict) -> None:
+        if state["task_names"] != list(self.task_names) or state["task_counts"] != list(self.task_counts):
+            raise RuntimeError(
+                f"env state is for tasks {state['task_names']} x {state['task_counts']}, this env has "
+                f"{self.task_names} x {self.task_counts}"
+            )
+        for k, v in state["episode"].items():
+            getattr(self, k).copy_(v)
+        self._generator.set_state(state["generator"].cpu() if self.device.type == "cpu" else state["generator"])
+        for b, ((task, s), saved) in enumerate(zip(self.blocks, state["blocks"])):
+            s.sim.set_state(saved["sim"])
+            for k, v in saved["task"].items():
+                getattr(s, k).copy_(v)
+            for k, v in saved["extra"].items():
+                s.extra[k].copy_(v)
+            self._reset_vec[b].copy_(saved["reset_vec"])
+        self._refresh_kinematic_quantities()
+
     # ------------------------------------------------------------------ statistics
     def pop_episode_stats(self) -> TensorDict:
         """Per-task sums over the episodes finished since the last call (``[K]`` tensors, on the env device):

@@ -113,9 +113,8 @@ class MetaWorldTask:
 
     @staticmethod
     def set_body_pos(sim: WarpSim, body: int, pos: torch.Tensor, mask: torch.Tensor) -> None:
-        """Move a fixed (non-free) body, e.g. a drawer cabinet, per world (needs batched ``body_pos``)."""
-        field = sim.model_field("body_pos")[:, body]
-        field.copy_(torch.where(mask[:, None], pos, field))
+        """Move a world-fixed body, e.g. a drawer cabinet, per world (its fixed geoms move with it)."""
+        sim.set_body_pos(body, pos, mask)
 
     # ------------------------------------------------------------------ task interface
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
