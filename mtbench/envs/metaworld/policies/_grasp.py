@@ -1,0 +1,48 @@
+"""Control helpers shared by the scripted grasping policies (push, pick_place, peg_insert_side)."""
+
+from __future__ import annotations
+
+import torch
+
+from ..robot import ACTION_SCALE
+
+# The hand trails the mocap target by about this many control steps of its own motion (weld + arm damping:
+# at 1 cm/step the lag settles at 3 cm), so ``hand + LAG_STEPS * (hand - previous hand)`` estimates the target.
+LAG_STEPS = 3.0
+
+
+def shifted(p: torch.Tensor, dx: float = 0.0, dy: float = 0.0, dz: float = 0.0) -> torch.Tensor:
+    """``p + (dx, dy, dz)`` for ``[N, 3]`` points (no host-to-device copy)."""
+    return torch.stack([p[:, 0] + dx, p[:, 1] + dy, p[:, 2] + dz], dim=-1)
+
+
+def move_lead(hand: torch.Tensor, prev_hand: torch.Tensor, target: torch.Tensor,
+              speed: torch.Tensor | float = 1.0) -> torch.Tensor:
+    """Displacement action that puts the (estimated) mocap target on ``target``: the hand then settles there
+    without the overshoot that a proportional step on the hand position gives. ``speed`` (float or ``[N]``) caps
+    |action| per axis."""
+    mocap = hand + LAG_STEPS * (hand - prev_hand)
+    delta = (target - mocap) / ACTION_SCALE
+    if isinstance(speed, torch.Tensor):
+        speed = speed[:, None]
+        return torch.maximum(torch.minimum(delta, speed), -speed)
+    return delta.clamp(-speed, speed)
+
+
+def grasp_phase(hand: torch.Tensor, grasp: torch.Tensor, opened: torch.Tensor, *, above: float, xy_tol: float,
+                grasp_tol: float, hold_tol: float, held_below: float, empty_below: float
+                ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The approach-and-grasp part shared by the policies, from distances only (stateless).
+
+    Returns ``(target, close, held)``: the hand target while not holding (above ``grasp`` until aligned in xy
+    within ``xy_tol``, then down onto it; the current hand position while the fingers close), whether to close the
+    gripper (hand within ``grasp_tol`` of ``grasp``, or holding), and whether the object is held (hand within
+    ``hold_tol`` and the openness between ``empty_below`` and ``held_below``).
+    """
+    dist = (hand - grasp).norm(dim=-1)
+    aligned = (hand[:, :2] - grasp[:, :2]).norm(dim=-1) < xy_tol
+    held = (dist < hold_tol) & (opened < held_below) & (opened > empty_below)
+    close = (dist < grasp_tol) | held
+    target = torch.where(aligned[:, None], grasp, shifted(grasp, dz=above))
+    target = torch.where(close[:, None], hand, target)  # wait while the fingers close
+    return target, close, held

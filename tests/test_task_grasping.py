@@ -1,0 +1,380 @@
+"""Known-answer tests of the grasping tasks' rewards and success rules (push, pick_place, peg_insert_side).
+
+No physics: the tasks' pure ``reward_and_success`` functions run on hand-set states. The dense rewards are compared
+with Meta-World's own ``compute_reward`` (metaworld 3.0.0, the "v2" reward) evaluated with numpy on the same
+numbers: the methods are compiled from the installed metaworld source files and called on a stand-in ``self``
+(``import metaworld`` itself needs optional rendering packages). Meta-World replaces the reward by 10 on its own
+success, so the comparisons use states outside that region; the success rules are the paper-era MTBench ones.
+"""
+
+from __future__ import annotations
+
+import __future__
+import ast
+import importlib.util
+import types
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Callable
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+
+from mtbench.envs.metaworld import robot
+from mtbench.envs.metaworld.tasks import _grasp
+from mtbench.envs.metaworld.tasks.peg_insert_side import PegInsertSide
+from mtbench.envs.metaworld.tasks.pick_place import PickPlace
+from mtbench.envs.metaworld.tasks.push import Push
+
+ATOL = 2e-4  # float32 torch vs float64 numpy on rewards of scale 1..10
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Meta-World reference (compiled from the installed source files)
+# --------------------------------------------------------------------------------------------------------------
+def _method(path: Path, class_name: str, name: str, namespace: dict[str, Any]) -> Callable[..., Any]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == class_name)
+    func = next(n for n in cls.body if isinstance(n, ast.FunctionDef) and n.name == name)
+    func.decorator_list = []
+    code = compile(ast.Module(body=[func], type_ignores=[]), str(path), "exec",
+                   flags=__future__.annotations.compiler_flag, dont_inherit=True)
+    exec(code, namespace)
+    return namespace[name]
+
+
+@lru_cache(maxsize=1)
+def _reference() -> dict[str, Callable[..., Any]] | str:
+    spec = importlib.util.find_spec("metaworld")
+    if spec is None or not spec.submodule_search_locations:
+        return "metaworld is not installed"
+    root = Path(next(iter(spec.submodule_search_locations)))
+    ru_spec = importlib.util.spec_from_file_location("_grasp_ref_reward_utils", root / "utils" / "reward_utils.py")
+    ru = importlib.util.module_from_spec(ru_spec)
+    ru_spec.loader.exec_module(ru)
+    import numpy.typing as npt
+
+    ns = {"np": np, "npt": npt, "Any": Any, "reward_utils": ru}
+    envs = root / "envs"
+    return {
+        "caging": _method(root / "sawyer_xyz_env.py", "SawyerXYZEnv", "_gripper_caging_reward", dict(ns)),
+        "push": _method(envs / "sawyer_push_v3.py", "SawyerPushEnvV3", "compute_reward", dict(ns)),
+        "pick_place": _method(envs / "sawyer_pick_place_v3.py", "SawyerPickPlaceEnvV3", "compute_reward", dict(ns)),
+        "pick_place_caging": _method(envs / "sawyer_pick_place_v3.py", "SawyerPickPlaceEnvV3",
+                                     "_gripper_caging_reward", dict(ns)),
+        "peg": _method(envs / "sawyer_peg_insertion_side_v3.py", "SawyerPegInsertionSideEnvV3", "compute_reward",
+                       dict(ns)),
+    }
+
+
+@pytest.fixture(scope="module")
+def ref() -> dict[str, Callable[..., Any]]:
+    r = _reference()
+    if isinstance(r, str):
+        pytest.skip(r)
+    return r
+
+
+class _FakeEnv:
+    """What Meta-World's ``compute_reward`` reads from ``self``, for one hand-set state."""
+
+    reward_function_version = "v2"
+
+    def __init__(self, caging: Callable[..., Any], *, tcp, left_pad, right_pad, goal, obj_init_pos, init_tcp,
+                 init_left_pad=None, init_right_pad=None, sites=None, target_radius=None,
+                 peg_head_pos_init=None) -> None:
+        self.tcp_center = np.asarray(tcp, dtype=np.float64)
+        self._pads = {"leftpad": np.asarray(left_pad, np.float64), "rightpad": np.asarray(right_pad, np.float64)}
+        self._target_pos = np.asarray(goal, np.float64)
+        self.obj_init_pos = np.asarray(obj_init_pos, np.float64)
+        self.init_tcp = np.asarray(init_tcp, np.float64)
+        self.init_left_pad = None if init_left_pad is None else np.asarray(init_left_pad, np.float64)
+        self.init_right_pad = None if init_right_pad is None else np.asarray(init_right_pad, np.float64)
+        self._sites = {k: np.asarray(v, np.float64) for k, v in (sites or {}).items()}
+        self.peg_head_pos_init = None if peg_head_pos_init is None else np.asarray(peg_head_pos_init, np.float64)
+        if target_radius is not None:
+            self.TARGET_RADIUS = target_radius
+        self._gripper_caging_reward = types.MethodType(caging, self)
+
+    def get_body_com(self, name: str) -> np.ndarray:
+        return self._pads[name]
+
+    def _get_site_pos(self, name: str) -> np.ndarray:
+        return self._sites[name]
+
+
+def _f32(x) -> np.ndarray:
+    """The float32 grid (as float64) so that numpy and torch see identical inputs."""
+    return np.asarray(x, dtype=np.float32).astype(np.float64)
+
+
+def _t(x) -> torch.Tensor:
+    return torch.as_tensor(np.asarray(x), dtype=torch.float32)
+
+
+def _obs(tcp, opened, obj) -> np.ndarray:
+    obs = np.zeros(39)
+    obs[0:3], obs[3], obs[4:7] = tcp, opened, obj
+    return obs
+
+
+def _random_grasp_states(rng: np.random.Generator, n: int, goal_far: float) -> list[dict[str, np.ndarray]]:
+    """States around a puck/peg: hand near or far, pads around it or not, gripper efforts in [-1, 1]."""
+    states = []
+    for i in range(n):
+        obj_init = np.array([rng.uniform(-0.1, 0.1), rng.uniform(0.6, 0.7), 0.02])
+        obj = obj_init + rng.normal(0, [0.03, 0.03, 0.02]) * (i % 3 != 0)
+        # goal at least goal_far away from the object: no Meta-World success override
+        direction = rng.normal(size=3)
+        goal = obj + direction / np.linalg.norm(direction) * rng.uniform(goal_far, 0.3)
+        near = i % 2 == 0
+        tcp = obj + (rng.normal(0, 0.004, 3) if near else rng.normal(0, 0.08, 3))
+        half = rng.uniform(0.005, 0.045)
+        left, right = tcp + [0, half, 0], tcp - [0, half, 0]
+        init_tcp = np.array([0.0, 0.6, 0.2]) + rng.normal(0, 0.01, 3)
+        states.append({k: _f32(v) for k, v in dict(
+            obj=obj, obj_init=obj_init, goal=goal, tcp=tcp, left=left, right=right, init_tcp=init_tcp,
+            init_left=init_tcp + [0, 0.045, 0], init_right=init_tcp - [0, 0.045, 0],
+            opened=np.clip(2 * half / 0.1, 0, 1), action=np.array([0, 0, 0, rng.uniform(-1, 1)]),
+        ).items()})
+    return states
+
+
+def _stack(states: list[dict[str, np.ndarray]], key: str) -> torch.Tensor:
+    return _t(np.stack([s[key] for s in states]))
+
+
+# --------------------------------------------------------------------------------------------------------------
+# push
+# --------------------------------------------------------------------------------------------------------------
+def _push(states):
+    return Push.reward_and_success(
+        _stack(states, "action"), _stack(states, "obj"), _stack(states, "opened"), _stack(states, "tcp"),
+        _stack(states, "left"), _stack(states, "right"), _stack(states, "goal"), _stack(states, "obj_init"),
+        _stack(states, "init_tcp"))
+
+
+def test_push_dense_matches_metaworld(ref) -> None:
+    states = _random_grasp_states(np.random.default_rng(0), 48, goal_far=0.06)
+    reward, success = _push(states)
+    expected = []
+    for s in states:
+        env = _FakeEnv(ref["caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"], goal=s["goal"],
+                       obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"], target_radius=Push.TARGET_RADIUS)
+        expected.append(ref["push"](env, s["action"], _obs(s["tcp"], s["opened"], s["obj"]))[0])
+    np.testing.assert_allclose(reward.numpy(), np.array(expected), atol=ATOL, rtol=0)
+    assert not success.any()  # every goal is > 5 cm away
+    # both branches are exercised: hand at the puck (reward > 1) and away from it
+    assert (reward > 1.0).any() and (reward < 1.0).any()
+
+
+def test_push_success_and_maximum_at_goal() -> None:
+    obj = torch.tensor([[0.0, 0.65, 0.02]])
+    goal = obj.clone()
+    tcp = obj + torch.tensor([0.0, 0.0, 0.004])
+    left, right = tcp + torch.tensor([0.0, 0.024, 0.0]), tcp - torch.tensor([0.0, 0.024, 0.0])
+    args = dict(goal=goal, obj_init_pos=torch.tensor([[0.0, 0.65, 0.02]]) - torch.tensor([0.0, 0.2, 0.0]),
+                init_tcp=torch.tensor([[0.0, 0.6, 0.2]]))
+    action = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
+    reward, success = Push.reward_and_success(action, obj, torch.tensor([0.48]), tcp, left, right, **args)
+    assert success.item()
+    # caged and gripping: grasp = 1, in_place = 1 -> 1 + 2 * (2 * 1) + 5 * 1
+    torch.testing.assert_close(reward, torch.tensor([10.0]), atol=1e-4, rtol=0)
+    # MTBench's extra conditions: the hand must be within 2 cm of the puck and the gripper not fully closed
+    far_tcp = obj + torch.tensor([0.0, 0.0, 0.025])
+    _, success = Push.reward_and_success(action, obj, torch.tensor([0.48]), far_tcp, left, right, **args)
+    assert not success.item()
+    _, success = Push.reward_and_success(action, obj, torch.tensor([0.0]), tcp, left, right, **args)
+    assert not success.item()
+    # 4.9 cm from the goal succeeds, 5.1 cm does not (strict <)
+    for d, ok in ((0.049, True), (0.051, False)):
+        moved = obj + torch.tensor([d, 0.0, 0.0])
+        _, success = Push.reward_and_success(action, moved, torch.tensor([0.48]), moved, left, right, **args)
+        assert success.item() is ok
+
+
+def test_push_far_state_small_reward() -> None:
+    obj = torch.tensor([[0.0, 0.65, 0.02]])
+    reward, success = Push.reward_and_success(
+        torch.tensor([[0.0, 0.0, 0.0, -1.0]]), obj, torch.tensor([1.0]), torch.tensor([[0.0, 0.6, 0.2]]),
+        torch.tensor([[0.0, 0.645, 0.2]]), torch.tensor([[0.0, 0.555, 0.2]]), torch.tensor([[0.1, 0.85, 0.02]]),
+        obj, torch.tensor([[0.0, 0.6, 0.2]]))
+    assert not success.item() and 0.0 < reward.item() < 0.2
+
+
+# --------------------------------------------------------------------------------------------------------------
+# pick_place
+# --------------------------------------------------------------------------------------------------------------
+def _pick_place(states):
+    return PickPlace.reward_and_success(
+        _stack(states, "action"), _stack(states, "obj"), _stack(states, "opened"), _stack(states, "tcp"),
+        _stack(states, "left"), _stack(states, "right"), _stack(states, "goal"), _stack(states, "obj_init"),
+        _stack(states, "init_tcp"), _stack(states, "init_left"), _stack(states, "init_right"))
+
+
+def test_pick_place_dense_matches_metaworld(ref) -> None:
+    states = _random_grasp_states(np.random.default_rng(1), 48, goal_far=0.075)  # beyond Meta-World's 0.07
+    for s in states[::4]:  # some lifted puck states (the +1 + 5 in_place branch)
+        s["obj"] = _f32(s["obj_init"] + [0.0, 0.0, 0.05])
+        s["tcp"] = _f32(s["obj"] + [0.0, 0.0, 0.005])
+    reward, success = _pick_place(states)
+    expected = []
+    for s in states:
+        env = _FakeEnv(ref["pick_place_caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"],
+                       goal=s["goal"], obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"],
+                       init_left_pad=s["init_left"], init_right_pad=s["init_right"])
+        expected.append(ref["pick_place"](env, s["action"], _obs(s["tcp"], s["opened"], s["obj"]))[0])
+    np.testing.assert_allclose(reward.numpy(), np.array(expected), atol=ATOL, rtol=0)
+    assert not success.any()
+    assert (reward > 1.0).any() and (reward < 1.0).any()
+
+
+def test_pick_place_caging_matches_metaworld(ref) -> None:
+    states = _random_grasp_states(np.random.default_rng(2), 32, goal_far=0.1)
+    ours = _grasp.pick_place_caging_reward(
+        _stack(states, "action"), _stack(states, "obj"), left_pad=_stack(states, "left"),
+        right_pad=_stack(states, "right"), tcp_center=_stack(states, "tcp"), obj_init_pos=_stack(states, "obj_init"),
+        init_tcp=_stack(states, "init_tcp"), init_left_pad=_stack(states, "init_left"),
+        init_right_pad=_stack(states, "init_right"))
+    expected = [ref["pick_place_caging"](
+        _FakeEnv(ref["caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"], goal=s["goal"],
+                 obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"], init_left_pad=s["init_left"],
+                 init_right_pad=s["init_right"]), s["action"], s["obj"]) for s in states]
+    np.testing.assert_allclose(ours.numpy(), np.array(expected), atol=1e-5, rtol=0)
+    # the offsets are signed: swapping the pads (left pad on the -y side) is not a cage
+    swapped = _grasp.pick_place_caging_reward(
+        _stack(states, "action"), _stack(states, "obj"), left_pad=_stack(states, "right"),
+        right_pad=_stack(states, "left"), tcp_center=_stack(states, "tcp"), obj_init_pos=_stack(states, "obj_init"),
+        init_tcp=_stack(states, "init_tcp"), init_left_pad=_stack(states, "init_left"),
+        init_right_pad=_stack(states, "init_right"))
+    caged = ours > 0.45
+    assert caged.any() and (swapped[caged] < 0.1).all()
+
+
+def test_pick_place_success_threshold() -> None:
+    goal = torch.tensor([[0.0, 0.85, 0.2]])
+    obj_init = torch.tensor([[0.0, 0.65, 0.02]])
+    for d, ok in ((0.0, True), (0.049, True), (0.051, False), (0.069, False)):  # MTBench < 0.05 (Meta-World 0.07)
+        obj = goal + torch.tensor([0.0, 0.0, -d])
+        tcp = obj.clone()
+        reward, success = PickPlace.reward_and_success(
+            torch.tensor([[0.0, 0.0, 0.0, 1.0]]), obj, torch.tensor([0.48]), tcp, tcp + torch.tensor([0, 0.024, 0]),
+            tcp - torch.tensor([0, 0.024, 0]), goal, obj_init, torch.tensor([[0.0, 0.6, 0.2]]),
+            torch.tensor([[0.0, 0.645, 0.2]]), torch.tensor([[0.0, 0.555, 0.2]]))
+        assert success.item() is ok
+        assert reward.item() > 1.0  # held and lifted
+    # at the goal, held: hamacher(grasp, 1) + 1 + 5 = grasp + 6 with grasp in [0, 1]
+    assert 6.0 <= PickPlace.reward_and_success(
+        torch.tensor([[0.0, 0.0, 0.0, 1.0]]), goal, torch.tensor([0.48]), goal, goal + torch.tensor([0, 0.024, 0]),
+        goal - torch.tensor([0, 0.024, 0]), goal, obj_init, torch.tensor([[0.0, 0.6, 0.2]]),
+        torch.tensor([[0.0, 0.645, 0.2]]), torch.tensor([[0.0, 0.555, 0.2]]))[0].item() <= 7.0
+
+
+# --------------------------------------------------------------------------------------------------------------
+# peg_insert_side
+# --------------------------------------------------------------------------------------------------------------
+# collision-box corners of a block at (-0.3, 0.6, 0) (Meta-World's sites, block rotated by 90 deg about z)
+_BOX = np.array([-0.3, 0.6, 0.0])
+_CORNERS = {
+    "bottom_right_corner_collision_box_1": _BOX + [0.11, 0.1, 0.01],
+    "top_left_corner_collision_box_1": _BOX + [0.15, -0.1, 0.096],
+    "bottom_right_corner_collision_box_2": _BOX + [0.11, 0.1, 0.16],
+    "top_left_corner_collision_box_2": _BOX + [0.17, -0.1, 0.19],
+}
+_SCALE = torch.tensor(PegInsertSide.DIST_SCALE)
+
+
+def _peg(states):
+    corners = [_t(np.repeat(_f32(v)[None], len(states), 0)) for v in _CORNERS.values()]
+    return PegInsertSide.reward_and_success(
+        _stack(states, "action"), _stack(states, "obj"), _stack(states, "opened"), _stack(states, "head"),
+        _stack(states, "tcp"), _stack(states, "left"), _stack(states, "right"), _stack(states, "goal"),
+        _stack(states, "obj_init"), _stack(states, "init_tcp"), _stack(states, "head_init"), *corners, scale=_SCALE)
+
+
+def _peg_states(rng: np.random.Generator, n: int) -> list[dict[str, np.ndarray]]:
+    goal = _BOX + np.array(PegInsertSide.GOAL_OFFSET)
+    states = _random_grasp_states(rng, n, goal_far=0.1)
+    for i, s in enumerate(states):
+        s["goal"] = _f32(goal)
+        s["obj_init"] = _f32([rng.uniform(0, 0.2), rng.uniform(0.5, 0.7), 0.02])
+        s["head_init"] = _f32(s["obj_init"] + [-0.1, 0.0, 0.0])
+        if i % 3 == 0:  # carried towards the hole: head in front of the block, some in the collision boxes
+            s["obj"] = _f32(goal + [0.13 + rng.uniform(0.075, 0.3), rng.normal(0, 0.02), rng.uniform(-0.13, 0.02)])
+            s["tcp"] = _f32(s["obj"] + rng.normal(0, 0.01, 3))
+        s["head"] = _f32(s["obj"] + [-0.13, 0.0, -0.01])
+    return states
+
+
+def test_peg_dense_matches_metaworld(ref) -> None:
+    states = _peg_states(np.random.default_rng(3), 60)
+    reward, success = _peg(states)
+    expected, scaled = [], []
+    for s in states:
+        env = _FakeEnv(ref["caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"], goal=s["goal"],
+                       obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"], sites={"pegHead": s["head"], **_CORNERS},
+                       target_radius=PegInsertSide.REWARD_RADIUS, peg_head_pos_init=s["head_init"])
+        out = ref["peg"](env, s["action"], _obs(s["tcp"], s["opened"], s["obj"]))
+        expected.append(out[0])
+        scaled.append(out[3])
+    assert min(scaled) > 0.07  # no Meta-World success override in these states
+    np.testing.assert_allclose(reward.numpy(), np.array(expected), atol=ATOL, rtol=0)
+    assert not success.any()
+    assert (reward > 1.0).any() and (reward < 1.0).any()
+
+
+def test_peg_success_uses_scaled_distance() -> None:
+    goal = torch.tensor([(_BOX + np.array(PegInsertSide.GOAL_OFFSET)).tolist()], dtype=torch.float32)
+    corners = [_t(v[None]) for v in _CORNERS.values()]
+    cases = (((0.0, 0.0, 0.0), True), ((0.049, 0.0, 0.0), True), ((0.0, 0.024, 0.0), True),
+             ((0.0, 0.026, 0.0), False),  # 2.6 cm sideways is 5.2 cm scaled
+             ((0.06, 0.0, 0.0), False))  # Meta-World (<= 0.07) would count this
+    for offset, ok in cases:
+        head = goal + torch.tensor([offset])
+        obj = head + torch.tensor([[0.13, 0.0, 0.01]])
+        reward, success = PegInsertSide.reward_and_success(
+            torch.tensor([[0.0, 0.0, 0.0, 1.0]]), obj, torch.tensor([0.38]), head, obj,
+            obj + torch.tensor([0, 0.019, 0]), obj - torch.tensor([0, 0.019, 0]), goal,
+            torch.tensor([[0.1, 0.6, 0.02]]), torch.tensor([[0.0, 0.6, 0.2]]), torch.tensor([[0.0, 0.6, 0.02]]),
+            *corners, scale=_SCALE)
+        assert success.item() is ok, offset
+        assert reward.item() > 1.0  # lifted and held
+    # inserted (in_place = 1, lifted: grasp forced to 1) gives the maximal dense reward 1 + 1 + 5
+    torch.testing.assert_close(reward.new_tensor(7.0), PegInsertSide.reward_and_success(
+        torch.tensor([[0.0, 0.0, 0.0, 1.0]]), goal + torch.tensor([[0.13, 0.0, 0.01]]), torch.tensor([0.38]), goal,
+        goal + torch.tensor([[0.13, 0.0, 0.01]]), goal, goal, goal, torch.tensor([[0.1, 0.6, 0.02]]),
+        torch.tensor([[0.0, 0.6, 0.2]]), torch.tensor([[0.0, 0.6, 0.02]]), *corners, scale=_SCALE)[0][0])
+
+
+# --------------------------------------------------------------------------------------------------------------
+# finger-damping stopgap (a two-finger stand-in model, no simulation)
+# --------------------------------------------------------------------------------------------------------------
+_FINGERS_XML = f"""
+<mujoco><worldbody><body name="hand">
+  <body><joint name="{robot.FINGER_JOINTS[0]}" type="slide" damping="{{d}}"/><geom size="0.01"/></body>
+  <body><joint name="{robot.FINGER_JOINTS[1]}" type="slide" damping="{{d}}"/><geom size="0.01"/></body>
+</body></worldbody></mujoco>"""
+
+
+class _FakeSim:
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self._damping = torch.from_numpy(model.dof_damping.copy())[None]
+
+    def model_field(self, name: str) -> torch.Tensor:
+        assert name == "dof_damping"
+        return self._damping
+
+
+@pytest.mark.parametrize("compiled, expected", [(1.0, _grasp.FINGER_DAMPING), (100.0, 100.0)])
+def test_finger_damping_fix_raises_low_damping_once(compiled: float, expected: float) -> None:
+    model = mujoco.MjModel.from_xml_string(_FINGERS_XML.replace("{d}", str(compiled)))
+    fix = _grasp.FingerDampingFix()
+    fix.bind_finger_damping(model)
+    state = types.SimpleNamespace(sim=_FakeSim(model))
+    fix.apply_finger_damping(state)
+    torch.testing.assert_close(state.sim.model_field("dof_damping"), torch.full((1, 2), expected, dtype=torch.float64))
+    state.sim.model_field("dof_damping").fill_(3.0)
+    fix.apply_finger_damping(state)  # only once
+    assert (state.sim.model_field("dof_damping") == 3.0).all()
