@@ -3,46 +3,13 @@
 * Batched torch versions of the parts of Meta-World's v2 rewards that are not in :mod:`..reward_utils`: the
   pick-place variant of the caging reward (which measures the pads against their *initial* positions and uses
   signed pad-to-object offsets) and the "grasped and lifted" test of the pick-place / peg rewards.
-* :class:`FingerDampingFix`: a stopgap for the finger dynamics of ``robot.py`` (see ``FINGER_DAMPING``).
 """
 
 from __future__ import annotations
 
-import mujoco
 import torch
 
-from .. import robot
 from ..reward_utils import hamacher_product, tolerance
-from ..task import TaskState
-
-# Finger slide-joint damping (N s/m) that grasping needs. With the compiled value (1.0, Menagerie's default) and
-# armature 0.1 kg, the 30 N per finger of a full gripper command accelerates a finger to ~3 m/s within one 12 ms
-# control step (1 cm per 4 ms physics step): the fingertip pads (4 mm boxes + 2 mm ridges) tunnel through a 4 cm
-# puck, the puck is squeezed into the table or wedged on the ridges (half of the grasps fail), and the extra
-# contacts need up to 209 constraint rows per world in MuJoCo Warp (vs ~100 for a clean grasp). At 60 N s/m the
-# fingers close at <= 0.5 m/s (2 mm per physics step), 2-3 cm in ~5 control steps, and hold the 0.75 kg puck
-# while the hand moves.
-FINGER_DAMPING = 60.0
-
-
-class FingerDampingFix:
-    """Stopgap until ``robot.panda_spec`` gives the finger joints ``FINGER_DAMPING``: raises the finger damping of
-    this task's simulator model at the first reset (the field is shared by the block's worlds). Does nothing when
-    the compiled model already has at least that much damping. Call :meth:`bind_finger_damping` in ``bind`` and
-    :meth:`apply_finger_damping` in ``reset``."""
-
-    def bind_finger_damping(self, model: mujoco.MjModel) -> None:
-        dofs = sorted(int(model.jnt_dofadr[model.joint(j).id]) for j in robot.FINGER_JOINTS)
-        if dofs != list(range(dofs[0], dofs[-1] + 1)):
-            raise RuntimeError(f"finger dofs {dofs} are not contiguous")
-        self._finger_dofs = slice(dofs[0], dofs[-1] + 1)
-        self._finger_damping_pending = bool(model.dof_damping[self._finger_dofs].min() < FINGER_DAMPING)
-
-    def apply_finger_damping(self, s: TaskState) -> None:
-        # a Python flag, not a tensor: the write happens once, at the env's first reset (before any graph capture)
-        if self._finger_damping_pending:
-            s.sim.model_field("dof_damping")[..., self._finger_dofs].fill_(FINGER_DAMPING)
-            self._finger_damping_pending = False
 
 
 def pick_place_caging_reward(

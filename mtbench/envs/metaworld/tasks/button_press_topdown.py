@@ -31,7 +31,7 @@ Differences:
 * On success steps the env pays the flat ``success_bonus`` (MTBench added ``16 * button_pressed`` to the dense
   term instead; the framework uses one rule for every task).
 * ``obs[0:3]`` and ``tcp`` are the Panda's finger-pad midpoint; ``obs[3]`` is the pad distance / 0.1.
-* The box's own collision geoms are moved with it by ``FixtureGeoms`` (MuJoCo Warp treats them as static; left
+* The box's own collision geoms move with it (``WarpSim.set_body_pos``; MuJoCo Warp treats them as static; left
   at the XML position they overlapped the button's rod and held the button up).
 
 Physics notes: the button's joint limit is a soft constraint scaled by the button's 10 g mass, so a hard shove
@@ -48,7 +48,6 @@ import torch
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, TaskState, pad_object_state
-from .door_open import FixtureGeoms
 
 
 def button_press_topdown_reward(
@@ -104,11 +103,9 @@ class ButtonPressTopdown(MetaWorldTask):
         self.button_qpos = self.joint_qposadr("btnbox_joint")
         self.hole_site = self.site_id("hole")
         self.start_site = self.site_id("buttonStart")
-        self.box_geoms = FixtureGeoms(model, self.box_body)
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         self.set_body_pos(s.sim, self.box_body, vec[:, :3], mask)
-        self.box_geoms.place(s.sim, vec[:, :3], mask)
         q = s.sim.qpos[:, self.button_qpos]
         q.copy_(torch.where(mask, torch.zeros_like(q), q))
         s.obj_init_pos.copy_(torch.where(mask[:, None], vec[:, :3], s.obj_init_pos))

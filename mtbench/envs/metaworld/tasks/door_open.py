@@ -37,65 +37,18 @@ bar turns, so a closed grasp resists opening; an agent has to trade the 2 grab p
 Differences to Meta-World: ``hand`` is the Panda's finger-pad midpoint (the framework's ``obs[0:3]``; Meta-World
 used the Sawyer hand body). MTBench replaced the grab-effort term by the gripper openness and moved the funnel and
 the in-place target for the Franka; this task keeps Meta-World's v2 reward (not the 2026 upstream change).
-The safe's own collision geoms are moved with it by :class:`FixtureGeoms` (MuJoCo Warp treats them as static).
+The safe's own collision geoms move with it (``WarpSim.set_body_pos``; MuJoCo Warp treats them as static).
 """
 
 from __future__ import annotations
 
 import math
 
-import mujoco
 import torch
 
 from ..reward_utils import above_floor_funnel, hamacher_product, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, TaskState, pad_object_state
-
-
-class FixtureGeoms:
-    """The static geoms of a fixed body (and of its descendants welded to it), to be moved with the body.
-
-    MuJoCo Warp computes ``geom_xpos`` of geoms attached to the world (``body_weldid == 0``) once, when the data
-    is made, and never again: moving a fixed body through the batched ``body_pos`` moves its frame, its sites and
-    its jointed children, but its own collision geoms stay where the XML put them. :meth:`place` writes their
-    world positions for the new body position (the body's orientation is unchanged, so ``geom_xmat`` stays valid).
-    """
-
-    def __init__(self, model: mujoco.MjModel, body: int) -> None:
-        data = mujoco.MjData(model)
-        mujoco.mj_kinematics(model, data)
-        ids = [g for g in range(model.ngeom)
-               if model.body_weldid[model.geom_bodyid[g]] == 0 and _descends(model, int(model.geom_bodyid[g]), body)]
-        self.ids = torch.tensor(ids, dtype=torch.long)
-        self.offsets = torch.tensor(data.geom_xpos[ids] - data.xpos[body], dtype=torch.float32)
-        self._on: dict[torch.device, tuple[torch.Tensor, torch.Tensor]] = {}
-
-    def place(self, sim, pos: torch.Tensor, mask: torch.Tensor) -> None:
-        """Set the world positions of the geoms for body position ``pos`` ``[n, 3]`` in the worlds of ``mask``."""
-        consts = self._on.get(pos.device)
-        if consts is None:  # copied to the device once
-            consts = self._on.setdefault(pos.device, (self.ids.to(pos.device), self.offsets.to(pos.device)))
-        ids, offsets = consts
-        geom_xpos = static_geom_xpos(sim)
-        new = pos[:, None, :] + offsets[None]
-        old = geom_xpos.index_select(1, ids)
-        geom_xpos.index_copy_(1, ids, torch.where(mask[:, None, None], new, old))
-
-
-def static_geom_xpos(sim) -> torch.Tensor:
-    """Zero-copy ``[nworld, ngeom, 3]`` view of the simulator's ``geom_xpos``."""
-    view = getattr(sim, "geom_xpos", None)
-    if view is None:
-        import warp as wp  # the sim layer exposes no geom_xpos view yet
-
-        view = wp.to_torch(sim.data.geom_xpos)
-    return view
-
-
-def _descends(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
-    while body != ancestor and body != 0:
-        body = int(model.body_parentid[body])
-    return body == ancestor
 
 
 def offset(x: torch.Tensor, dx: float, dy: float, dz: float) -> torch.Tensor:
@@ -159,7 +112,6 @@ class DoorOpen(MetaWorldTask):
         self.door_body = self.body_id("door")
         self.link_body = self.body_id("door_link")
         self.door_qpos = self.joint_qposadr("doorjoint")
-        self.safe_geoms = FixtureGeoms(model, self.door_body)
         handle = model.geom("handle")
         if int(handle.bodyid[0]) != self.link_body:
             raise RuntimeError("door handle geom is expected on body door_link")
@@ -169,7 +121,6 @@ class DoorOpen(MetaWorldTask):
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         self.set_body_pos(s.sim, self.door_body, vec[:, :3], mask)
-        self.safe_geoms.place(s.sim, vec[:, :3], mask)
         q = s.sim.qpos[:, self.door_qpos]
         q.copy_(torch.where(mask, torch.zeros_like(q), q))
         s.obj_init_pos.copy_(torch.where(mask[:, None], vec[:, :3], s.obj_init_pos))

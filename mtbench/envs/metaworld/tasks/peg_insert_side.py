@@ -8,10 +8,10 @@ import torch
 from ..reward_utils import gripper_caging_reward, hamacher_product, rect_prism_tolerance, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, TaskState, pad_object_state
-from ._grasp import FingerDampingFix, grasped_and_lifted
+from ._grasp import grasped_and_lifted
 
 
-class PegInsertSide(FingerDampingFix, MetaWorldTask):
+class PegInsertSide(MetaWorldTask):
     """Insert the green peg (box 24 × 3 × 3 cm along x, 0.1 kg, rotation-locked by its huge inertia) head first
     into the 6 × 6 cm side hole of the block (the hole runs along x, its opening faces +x, towards the peg).
 
@@ -41,10 +41,6 @@ class PegInsertSide(FingerDampingFix, MetaWorldTask):
     Success (paper-era MTBench): ``d ≤ 0.05`` (MTBench scales its frame's (x, y, z) by (2, 1, 2), i.e. Meta-World
     (x, y, z) by (1, 2, 2), the same ``d``; Meta-World: ``d ≤ 0.07``). MTBench's own target was 6 cm shallower
     (block + (0.09, 0, 0.13) in this frame, for its own block asset); we keep Meta-World's block and target.
-
-    Physics stopgap: until ``robot.py`` damps the finger joints, this task raises their damping in its own model
-    (:class:`._grasp.FingerDampingFix`); without it a full gripper command makes the fingertips tunnel through
-    the object.
     """
 
     name = "peg_insert_side"
@@ -59,7 +55,6 @@ class PegInsertSide(FingerDampingFix, MetaWorldTask):
     REWARD_RADIUS = 0.07  # Meta-World's TARGET_RADIUS, used in the dense in_place term
 
     def bind(self, model) -> None:
-        self.bind_finger_damping(model)
         self.peg_body = self.body_id("peg")
         self.box_body = self.body_id("box")
         self.peg_qpos = int(model.jnt_qposadr[model.body_jntadr[self.peg_body]])
@@ -73,7 +68,6 @@ class PegInsertSide(FingerDampingFix, MetaWorldTask):
         self.dist_scale = self.const(self.DIST_SCALE)
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
-        self.apply_finger_damping(s)
         self.set_free_body(s.sim, self.peg_qpos, vec[:, :3], mask)
         self.set_body_pos(s.sim, self.box_body, vec[:, 3:6], mask)
         goal = vec[:, 3:6] + self.goal_offset

@@ -7,10 +7,10 @@ import torch
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, TaskState, pad_object_state
-from ._grasp import FingerDampingFix, grasped_and_lifted, pick_place_caging_reward
+from ._grasp import grasped_and_lifted, pick_place_caging_reward
 
 
-class PickPlace(FingerDampingFix, MetaWorldTask):
+class PickPlace(MetaWorldTask):
     """Pick up the red puck (cylinder, radius 2 cm, height 4 cm, 0.75 kg) and bring it to the goal.
 
     Scene and reset: Meta-World ``sawyer_pick_place_v3.xml``; puck ~ U([-0.1, 0.6, 0.02], [0.1, 0.7, 0.02]),
@@ -25,10 +25,6 @@ class PickPlace(FingerDampingFix, MetaWorldTask):
         if ‖tcp − obj‖ < 0.02 and obs[3] > 0 and obj_z − 0.01 > obj_init_z:  r += 1 + 5·in_place
 
     Success (paper-era MTBench): ``‖obj − goal‖ < 0.05`` (Meta-World: ``≤ 0.07``).
-
-    Physics stopgap: until ``robot.py`` damps the finger joints, this task raises their damping in its own model
-    (:class:`._grasp.FingerDampingFix`); without it a full gripper command makes the fingertips tunnel through
-    the object.
     """
 
     name = "pick_place"
@@ -40,7 +36,6 @@ class PickPlace(FingerDampingFix, MetaWorldTask):
     MIN_GOAL_DIST = 0.15
 
     def bind(self, model) -> None:
-        self.bind_finger_damping(model)
         self.obj_qpos = self.joint_qposadr("objjoint")
         self.obj_body = self.body_id("obj")
 
@@ -52,7 +47,6 @@ class PickPlace(FingerDampingFix, MetaWorldTask):
         return vec
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
-        self.apply_finger_damping(s)
         self.set_free_body(s.sim, self.obj_qpos, vec[:, :3], mask)
         s.obj_init_pos.copy_(torch.where(mask[:, None], vec[:, :3], s.obj_init_pos))
         s.goal.copy_(torch.where(mask[:, None], vec[:, 3:6], s.goal))

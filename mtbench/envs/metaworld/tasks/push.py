@@ -7,10 +7,9 @@ import torch
 from ..reward_utils import gripper_caging_reward, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, TaskState, pad_object_state
-from ._grasp import FingerDampingFix
 
 
-class Push(FingerDampingFix, MetaWorldTask):
+class Push(MetaWorldTask):
     """Push the red puck (cylinder, radius 2 cm, height 4 cm, 0.75 kg) to the green goal on the table.
 
     Scene and reset: Meta-World ``sawyer_push_v3.xml``; puck xy ~ U([-0.1, 0.6], [0.1, 0.7]) at z = 0.02 (resting
@@ -30,10 +29,6 @@ class Push(FingerDampingFix, MetaWorldTask):
 
     Success (paper-era MTBench): ``‖obj − goal‖ < 0.05`` and ``‖tcp − obj‖ < 0.02`` and ``obs[3] > 0`` (the hand
     must still be at the puck); Meta-World only asks ``‖obj − goal‖ ≤ 0.05``. All distances are frame invariant.
-
-    Physics stopgap: until ``robot.py`` damps the finger joints, this task raises their damping in its own model
-    (:class:`._grasp.FingerDampingFix`); without it a full gripper command makes the fingertips tunnel through
-    the object.
     """
 
     name = "push"
@@ -47,7 +42,6 @@ class Push(FingerDampingFix, MetaWorldTask):
     MIN_GOAL_DIST = 0.15
 
     def bind(self, model) -> None:
-        self.bind_finger_damping(model)
         self.obj_qpos = self.joint_qposadr("objjoint")
         self.obj_body = self.body_id("obj")
 
@@ -59,7 +53,6 @@ class Push(FingerDampingFix, MetaWorldTask):
         return vec
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
-        self.apply_finger_damping(s)
         z = torch.full_like(vec[:, :1], self.OBJ_Z)  # a fill, no host-to-device copy
         obj = torch.cat([vec[:, :2], z], dim=-1)
         goal = torch.cat([vec[:, 3:5], z], dim=-1)
