@@ -95,3 +95,52 @@ def test_bad_arguments_are_rejected(reach_model: mujoco.MjModel) -> None:
     if not torch.cuda.is_available():
         with pytest.raises(RuntimeError, match="CUDA is not available"):
             WarpSim(reach_model, nworld=1, device="cuda")
+
+
+_FIXTURE_XML = """
+<mujoco><worldbody>
+  <body name="fixture" pos="0.1 0.2 0.3" euler="0 0 90">
+    <geom name="a" type="box" size="0.1 0.02 0.05" pos="0.2 0 0"/>
+    <body name="inner" pos="0 0.1 0"><geom name="b" type="sphere" size="0.02" pos="0 0 0.1"/>
+      <body name="moving" pos="0 0 0">
+        <joint type="hinge" axis="0 0 1"/><geom name="c" type="sphere" size="0.01"/>
+      </body>
+    </body>
+  </body>
+  <geom name="floor" type="plane" size="1 1 0.1"/>
+</worldbody></mujoco>
+"""
+
+
+def test_set_body_pos_moves_world_fixed_geoms_with_the_body() -> None:
+    """MuJoCo Warp computes world-fixed geom positions once; moving their body per world must move them."""
+    m = mujoco.MjModel.from_xml_string(_FIXTURE_XML)
+    sim = WarpSim(m, nworld=2, device="cpu", batched_fields=("body_pos",))
+    body, a, b, c, floor = (m.body("fixture").id, m.geom("a").id, m.geom("b").id, m.geom("c").id, m.geom("floor").id)
+    before = sim.geom_xpos.clone()
+    shift = torch.tensor([[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]])
+    pos = sim.model_field("body_pos")[:, body] + shift
+    sim.set_body_pos(body, pos, torch.tensor([True, False]))
+    sim.step()  # kinematics moves the jointed child; the fixed geoms keep the written positions
+    after = sim.geom_xpos
+    for g in (a, b, c):  # fixed geoms of the subtree (a rotated 90 deg about z) and the jointed one all moved
+        assert torch.allclose(after[0, g], before[0, g] + shift[0], atol=1e-5), g
+    assert torch.allclose(after[0, a], torch.tensor([1.1, 2.4, 3.3]), atol=1e-5)
+    assert torch.equal(after[1], before[1])  # masked-out world untouched
+    assert torch.equal(after[:, floor], before[:, floor])  # geoms outside the subtree untouched
+    with pytest.raises(ValueError, match="batched_fields"):
+        WarpSim(m, nworld=1, device="cpu").set_body_pos(body, pos[:1], torch.tensor([True]))
+
+
+def test_panda_fingers_are_damped_and_ridges_do_not_collide() -> None:
+    from mtbench.envs.metaworld import robot
+
+    m = robot.panda_spec().compile()
+    for name in ("finger_joint1", "finger_joint2"):
+        assert m.dof_damping[m.joint(name).dofadr[0]] == robot.FINGER_DAMPING
+    finger_bodies = {m.body("left_finger").id, m.body("right_finger").id}
+    boxes = [g for g in range(m.ngeom) if m.geom_bodyid[g] in finger_bodies and m.geom_type[g] == 6]
+    small = [g for g in boxes if m.geom_size[g].max() < 0.005]
+    assert len(boxes) == 10 and len(small) == 8
+    assert all(m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0 for g in small)
+    assert all(m.geom_contype[g] == robot.ROBOT_CONTYPE for g in set(boxes) - set(small))

@@ -30,7 +30,6 @@ from mtbench.envs.metaworld.tasks.button_press_topdown import (
 )
 from mtbench.envs.metaworld.tasks.door_open import (
     DoorOpen,
-    FixtureGeoms,
     door_open_reward,
     door_open_success,
     quat_mul,
@@ -229,38 +228,6 @@ def test_button_reward_matches_metaworld(ref) -> None:
 
 
 # ------------------------------------------------------------------------------------------------ fixtures
-_FIXTURE_XML = """
-<mujoco><worldbody>
-  <body name="fixture" pos="0.1 0.2 0.3" euler="0 0 90">
-    <geom name="a" type="box" size="0.1 0.02 0.05" pos="0.2 0 0"/>
-    <body name="inner" pos="0 0.1 0"><geom name="b" type="sphere" size="0.02" pos="0 0 0.1"/>
-      <body name="moving" pos="0 0 0">
-        <joint type="hinge" axis="0 0 1"/><geom name="c" type="sphere" size="0.01"/>
-      </body>
-    </body>
-  </body>
-  <geom name="floor" type="plane" size="1 1 0.1"/>
-</worldbody></mujoco>
-"""
-
-
-def test_fixture_geoms_follow_the_moved_body() -> None:
-    model = mujoco.MjModel.from_xml_string(_FIXTURE_XML)
-    body = model.body("fixture").id
-    fg = FixtureGeoms(model, body)
-    # static geoms of the fixture and of its welded child; not the jointed grandchild nor the floor
-    assert sorted(fg.ids.tolist()) == sorted([model.geom("a").id, model.geom("b").id])
-    a = fg.ids.tolist().index(model.geom("a").id)
-    np.testing.assert_allclose(fg.offsets[a].numpy(), [0.0, 0.2, 0.0], atol=1e-6)  # rotated 90 deg about z
-
-    sim = types.SimpleNamespace(geom_xpos=torch.zeros(2, model.ngeom, 3))
-    pos = torch.tensor([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
-    fg.place(sim, pos, torch.tensor([True, False]))
-    np.testing.assert_allclose(sim.geom_xpos[0, model.geom("a").id].numpy(), [1.0, 2.2, 3.0], atol=1e-6)
-    assert float(sim.geom_xpos[1].abs().sum()) == 0.0  # masked-out world untouched
-    assert float(sim.geom_xpos[0, model.geom("c").id].abs().sum()) == 0.0
-
-
 def test_button_edit_spec_stiffens_the_joint_limit() -> None:
     spec = mujoco.MjSpec()
     body = spec.worldbody.add_body(name="button")

@@ -17,12 +17,10 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable
 
-import mujoco
 import numpy as np
 import pytest
 import torch
 
-from mtbench.envs.metaworld import robot
 from mtbench.envs.metaworld.tasks import _grasp
 from mtbench.envs.metaworld.tasks.peg_insert_side import PegInsertSide
 from mtbench.envs.metaworld.tasks.pick_place import PickPlace
@@ -351,30 +349,3 @@ def test_peg_success_uses_scaled_distance() -> None:
 # --------------------------------------------------------------------------------------------------------------
 # finger-damping stopgap (a two-finger stand-in model, no simulation)
 # --------------------------------------------------------------------------------------------------------------
-_FINGERS_XML = f"""
-<mujoco><worldbody><body name="hand">
-  <body><joint name="{robot.FINGER_JOINTS[0]}" type="slide" damping="{{d}}"/><geom size="0.01"/></body>
-  <body><joint name="{robot.FINGER_JOINTS[1]}" type="slide" damping="{{d}}"/><geom size="0.01"/></body>
-</body></worldbody></mujoco>"""
-
-
-class _FakeSim:
-    def __init__(self, model: mujoco.MjModel) -> None:
-        self._damping = torch.from_numpy(model.dof_damping.copy())[None]
-
-    def model_field(self, name: str) -> torch.Tensor:
-        assert name == "dof_damping"
-        return self._damping
-
-
-@pytest.mark.parametrize("compiled, expected", [(1.0, _grasp.FINGER_DAMPING), (100.0, 100.0)])
-def test_finger_damping_fix_raises_low_damping_once(compiled: float, expected: float) -> None:
-    model = mujoco.MjModel.from_xml_string(_FINGERS_XML.replace("{d}", str(compiled)))
-    fix = _grasp.FingerDampingFix()
-    fix.bind_finger_damping(model)
-    state = types.SimpleNamespace(sim=_FakeSim(model))
-    fix.apply_finger_damping(state)
-    torch.testing.assert_close(state.sim.model_field("dof_damping"), torch.full((1, 2), expected, dtype=torch.float64))
-    state.sim.model_field("dof_damping").fill_(3.0)
-    fix.apply_finger_damping(state)  # only once
-    assert (state.sim.model_field("dof_damping") == 3.0).all()
