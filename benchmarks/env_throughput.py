@@ -22,8 +22,11 @@ def _sync(device: torch.device) -> None:
         torch.cuda.synchronize(device)
 
 
-def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, substeps: int | None) -> dict:
-    overrides = {} if substeps is None else {"substeps": substeps}
+def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, substeps: int | None,
+            cuda_graph: bool = True, parallel_streams: bool = True) -> dict:
+    overrides = {"cuda_graph": cuda_graph, "parallel_streams": parallel_streams}
+    if substeps is not None:
+        overrides["substeps"] = substeps
     t0 = time.perf_counter()
     env = make_env(env_name, num_envs=num_envs, device=device, seed=0, **overrides)
     build_s = time.perf_counter() - t0
@@ -51,6 +54,8 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         "ms_per_step": 1e3 * elapsed / steps,
         "build_s": build_s,
         "unhealthy_resets": float(stats["unhealthy"].sum()),
+        "mode": ("whole-step graph" if env._graph is not None else "per-block graphs")
+        + (", streams" if parallel_streams else ", one stream"),
     }
 
 
@@ -62,14 +67,17 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=300)
     parser.add_argument("--warmup", type=int, default=20)
     parser.add_argument("--substeps", type=int, default=None)
+    parser.add_argument("--no-cuda-graph", action="store_true", help="per-block physics graphs only")
+    parser.add_argument("--one-stream", action="store_true", help="all task blocks on one CUDA stream")
     args = parser.parse_args()
     name = torch.cuda.get_device_name() if args.device.startswith("cuda") else platform.processor() or "cpu"
     print(f"device: {name}; torch {torch.__version__}; date {time.strftime('%Y-%m-%d')}")
-    print("| env | envs | substeps | env steps/s | physics steps/s | ms/step | build s | unhealthy resets |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| env | envs | mode | substeps | env steps/s | physics steps/s | ms/step | build s | unhealthy resets |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for n in args.num_envs:
-        r = measure(args.env, n, args.device, args.steps, args.warmup, args.substeps)
-        print(f"| {r['env']} | {r['num_envs']} | {r['substeps']} | {r['env_steps_per_s']:,.0f} | "
+        r = measure(args.env, n, args.device, args.steps, args.warmup, args.substeps,
+                    cuda_graph=not args.no_cuda_graph, parallel_streams=not args.one_stream)
+        print(f"| {r['env']} | {r['num_envs']} | {r['mode']} | {r['substeps']} | {r['env_steps_per_s']:,.0f} | "
               f"{r['physics_steps_per_s']:,.0f} | {r['ms_per_step']:.2f} | {r['build_s']:.1f} | "
               f"{r['unhealthy_resets']:.0f} |", flush=True)
 
