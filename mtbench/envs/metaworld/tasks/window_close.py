@@ -1,0 +1,55 @@
+"""Window close: slide an open window sash shut by pushing its handle sideways (Meta-World ``window-close-v3``)."""
+
+from __future__ import annotations
+
+import torch
+
+from ..task import MetaWorldTask, TaskState, pad_object_state
+from ._window import SCENE, SLIDE_TRAVEL, WindowSceneMixin, window_reward, window_success
+
+
+class WindowClose(WindowSceneMixin, MetaWorldTask):
+    """Slide the window closed by 20 cm along -x (Meta-World ``window-close-v3`` on the Panda).
+
+    * Reset: window frame at x = 0, y ~ U[0.75, 0.9], z = 0.2 (Meta-World's ``obj_low/obj_high``, Meta-World
+      frame), sash open (slide 0.2). Goal (Meta-World's ``_target_pos``) = the window position (= ``obj_init_pos``).
+    * Observation: object 1 = site ``handleCloseStart`` (``window + (0.01 + slide, -0.095, 0)``), zero quaternion
+      (as Meta-World); no object 2.
+    * Dense reward: Meta-World v2 ``10 · H(reach, in_place)``, ``in_place = tol(|handle_x − goal_x|, (0, .05),
+      margin |(handle_init_x − goal_x) − .05|, long_tail)`` (= margin 0.16), ``reach = tol(‖handle − tcp‖,
+      (0, .02), margin |‖handle_init − tcp_init‖ − .02|, gaussian)``; ``dense_scale`` 0.01.
+    * Success (paper-era MTBench, ``‖obj − target‖ ≤ 0.01`` in 3-D): MTBench's obj is the handle and its target
+      the initial (open) handle position moved back through the full 0.2 travel. In Meta-World's frame (MTBench's +y
+      is Meta-World's -x): ``‖handle − (handle_init − (0.2, 0, 0))‖ ≤ 0.01``, i.e. the slide is within 1 cm of
+      closed. Meta-World's own rule (``|handle_x − goal_x| ≤ 0.05``) accepts a slide up to 0.04.
+    * Differences: ``handle_init`` (Meta-World's ``window_handle_pos_init``) is the handle point measured after the
+      reset, with the sash open. Meta-World computes it as the site position before its kinematics are updated
+      (sash closed, previous episode's window position) plus (0.2, 0, 0): the same point whenever the window did
+      not move. The hand starts with the TCP at Meta-World's ``hand_init_pos`` (0, 0.4, 0.2).
+    * Physics note: the window frame (and the fixed pane) are static bodies placed per world with
+      :class:`._drawer.StaticFixture`, which also moves their collision geoms (MuJoCo Warp never updates static
+      geoms). The Panda hand pushes the handle bar and its upper arm from the side (see the scripted policy).
+    """
+
+    name = "window_close"
+    scene = SCENE
+    reset_low = (0.0, 0.75, 0.2)
+    reset_high = (0.0, 0.9, 0.2)
+    handle_site_name = "handleCloseStart"
+
+    def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
+        window = vec[:, :3]
+        self.place_window(s, window, SLIDE_TRAVEL, mask)
+        s.goal.copy_(torch.where(mask[:, None], window, s.goal))
+        s.obj_init_pos.copy_(torch.where(mask[:, None], window, s.obj_init_pos))
+
+    def object_state(self, s: TaskState) -> torch.Tensor:
+        pose = torch.cat([self.handle_pos(s), torch.zeros(s.n, 4, device=s.device)], dim=-1)
+        return pad_object_state(pose)
+
+    def evaluate(self, s, action, obs):
+        handle = self.handle_pos(s)
+        handle_init = self.handle_init(s)
+        x_error_init = (handle_init[:, 0] - s.goal[:, 0]).abs()
+        dense, _, _ = window_reward(s.tcp, handle, s.goal, handle_init, s.init_tcp, x_error_init, "gaussian")
+        return dense, window_success(handle, handle_init, -1.0)
