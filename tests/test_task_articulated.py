@@ -3,7 +3,7 @@
 No env is built. The rewards are compared with Meta-World's own ``compute_reward`` methods, compiled from the
 installed metaworld source files and called on a stand-in ``self`` (numpy, float64); success rules and the
 geometric offsets the tasks use are checked against the Meta-World XMLs (plain MuJoCo on the CPU) and against
-hand-set states. :class:`StaticFixture` is checked against MuJoCo's kinematics on a small model.
+hand-set states.
 """
 
 from __future__ import annotations
@@ -23,7 +23,6 @@ import torch
 
 from mtbench.envs.metaworld.tasks import _drawer, _window
 from mtbench.envs.metaworld.tasks._drawer import (
-    StaticFixture,
     drawer_close_reward,
     drawer_close_success,
     drawer_open_reward,
@@ -307,49 +306,3 @@ def test_window_geometry_matches_xml() -> None:
     mujoco.mj_kinematics(m, d)
     np.testing.assert_allclose(d.site(WindowOpen.handle_site_name).xpos, WINDOW + (-0.04, -0.095, 0.0), atol=1e-9)
     np.testing.assert_allclose(d.site(WindowClose.handle_site_name).xpos, WINDOW + (0.01, -0.095, 0.0), atol=1e-9)
-
-
-# --------------------------------------------------------------------------------------------------------------
-# StaticFixture: static geoms follow the moved body
-# --------------------------------------------------------------------------------------------------------------
-_FIXTURE_XML = """
-<mujoco>
-  <worldbody>
-    <geom name="floor" type="plane" size="1 1 0.1"/>
-    <body name="cabinet" pos="0 0.9 0">
-      <body name="case" pos="0 0 0.1">
-        <geom name="wall" type="box" size="0.1 0.01 0.1" pos="0.1 0 0"/>
-        <body name="slider" pos="0 -0.05 0">
-          <joint name="slide" type="slide" axis="0 1 0"/>
-          <geom name="moving" type="box" size="0.02 0.02 0.02"/>
-        </body>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
-
-
-def test_static_fixture_moves_static_geoms() -> None:
-    wp = pytest.importorskip("warp")
-    m = mujoco.MjModel.from_xml_string(_FIXTURE_XML)
-    d = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, d)
-    n = 3
-    body_pos = torch.as_tensor(np.tile(m.body_pos, (n, 1, 1)), dtype=torch.float32)
-    geom_xpos = wp.array(np.tile(d.geom_xpos, (n, 1, 1)).astype(np.float32), dtype=wp.vec3, device="cpu")
-    sim = types.SimpleNamespace(model_field=lambda name: body_pos, data=types.SimpleNamespace(geom_xpos=geom_xpos))
-    s = types.SimpleNamespace(sim=sim, extra={})
-    cabinet = m.body("cabinet").id
-    fixture = StaticFixture(m, cabinet)
-    new = torch.tensor([[0.1, 0.8, 0.0], [-0.1, 0.95, 0.05], [0.3, 0.3, 0.3]])
-    mask = torch.tensor([True, True, False])
-    fixture.place(s, new, mask)
-    got = wp.to_torch(geom_xpos).numpy()
-    for w in range(n):
-        m.body_pos[cabinet] = body_pos[w, cabinet].numpy()
-        mujoco.mj_kinematics(m, d)
-        wall, floor = m.geom("wall").id, m.geom("floor").id
-        np.testing.assert_allclose(got[w, wall], d.geom_xpos[wall], atol=1e-6)  # moved with the cabinet
-        np.testing.assert_allclose(got[w, floor], d.geom_xpos[floor], atol=1e-6)  # not part of the fixture
-    torch.testing.assert_close(body_pos[2, cabinet], torch.tensor([0.0, 0.9, 0.0]))  # masked out: unchanged

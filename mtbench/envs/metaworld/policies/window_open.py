@@ -1,11 +1,11 @@
-"""Scripted window_open: push the sash handle sideways (+x) with the open rear finger and the hand.
+"""Scripted window_open: push the sash handle sideways (+x) with the side of the Panda hand.
 
 The hand stays 5.5 cm in front of the handle bar, so that its rear end (10.4 cm behind the TCP along +y) clears the
-window frame by ~1.5 cm, and 2 cm below the handle's centre (between the handle's two arms); the open rear (+y)
-finger then overlaps the bar and the hand's underside meets the upper arm. Phases, chosen from distances: line up
-beside the bar well in front of the window (so the hand never sweeps through the handle), move in to a staging
-point 6.5 cm beside the bar and, once within 2 cm of it, push towards the goal (holding y and z) until the handle
-is 3 mm short of the slide limit.
+window frame by ~1.5 cm, and 2 cm below the handle's centre: its underside (3.7 cm above the TCP) is then level with
+the upper half of the vertical bar and the upper arm, and the side of the hand (3.2 cm from the TCP in x, ahead of
+the fingers) pushes them. Phases, chosen from distances: line up beside the bar well in front of the window (so the
+hand never sweeps through the handle), move in to a staging point 6.5 cm beside the bar and, once within 2 cm of
+it, push towards the goal (holding y and z) until the handle is 3 mm short of the slide limit.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ ENGAGE_RADIUS = 0.02  # push while the hand is this close (in y, z) to the stagi
 GAIN = 0.5  # proportional gain of the approach and of the y, z hold (full speed beyond 2 cm)
 PUSH_SPEED = 0.6
 SHORT_OF_LIMIT = 0.003
+GRIP = 1.0  # closed, as Meta-World's policy (the fingers do not touch the handle)
 
 
 def push_sash(obs: torch.Tensor, direction: float, bar_from_handle: float, handle_end_from_goal: float
@@ -49,7 +50,7 @@ def push_sash(obs: torch.Tensor, direction: float, bar_from_handle: float, handl
     delta_push = torch.cat([push_x[:, None], ((stage[:, 1:] - hand[:, 1:]) * (GAIN / 0.01)).clamp(-1.0, 1.0)],
                            dim=-1)
     delta = torch.where(engaged[:, None], delta_push, delta_approach)
-    return action(delta, 1.0)
+    return action(delta, GRIP)
 
 
 def policy(obs: torch.Tensor) -> torch.Tensor:

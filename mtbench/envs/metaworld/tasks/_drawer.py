@@ -9,17 +9,18 @@ spans ``drawer_link + (0, -0.09 .. -0.074, -0.044 .. +0.06)``.
 Meta-World reads ``get_body_com("drawer_link")``, which in gymnasium's MuJoCo env is the body *frame* position
 ``xpos`` (not the centre of mass ``xipos``), so the handle points here are offsets from ``xpos`` too.
 
-This module holds only plain functions, constants and helpers (no ``MetaWorldTask`` subclass, so task discovery
+The cabinet is fixed to the world: it is moved per world with ``MetaWorldTask.set_body_pos``, which also
+translates its collision geoms (MuJoCo Warp computes world-fixed geoms only once; without that the drawer and
+the cabinet walls interpenetrate for any cabinet x != 0 and the drawer is shot out against its joint limit).
+
+This module holds only plain functions, constants and a mixin (no ``MetaWorldTask`` subclass, so task discovery
 ignores it); the reward functions are pure torch on ``[n, 3]`` tensors so that the tests can evaluate them without
-physics. :class:`StaticFixture` (also used by the window tasks) works around MuJoCo Warp's static geoms.
+physics.
 """
 
 from __future__ import annotations
 
-import mujoco
-import numpy as np
 import torch
-import warp as wp
 
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec
@@ -46,60 +47,6 @@ def scaled_norm(x: torch.Tensor, scale: tuple[float, float, float]) -> torch.Ten
     return torch.stack([x[..., 0] * scale[0], x[..., 1] * scale[1], x[..., 2] * scale[2]], dim=-1).norm(dim=-1)
 
 
-_GEOM_XPOS_KEY = "_geom_xpos_view"
-
-
-class StaticFixture:
-    """Moves a fixture body that is welded to the world (e.g. the drawer cabinet) per world, *with* its geoms.
-
-    ``MetaWorldTask.set_body_pos`` writes the batched ``body_pos``; kinematics then move the body, its sites and
-    every jointed descendant. But MuJoCo Warp treats geoms of bodies welded to the world as static: their
-    ``geom_xpos``/``geom_xmat`` are computed once in ``put_data`` and never again (``smooth._geom_local_to_global``
-    skips them). Without this fix the cabinet's walls stay at the model's default position while the drawer moves
-    with the new ``body_pos``, so the two interpenetrate (the drawer was shot out against its joint limit at
-    cabinet x = -0.1) and the robot collides with invisible walls. :meth:`place` therefore also writes
-    ``geom_xpos`` of the static geoms in the fixture's subtree (a pure translation; their orientation is
-    unchanged). ``reset`` does not touch ``geom_xpos``, so the written values persist.
-    """
-
-    def __init__(self, model: mujoco.MjModel, body: int) -> None:
-        if model.body_parentid[body] != 0:
-            raise ValueError(f"fixture body {model.body(body).name!r} must be a child of the world body")
-        self.body = body
-        data = mujoco.MjData(model)
-        mujoco.mj_kinematics(model, data)
-        subtree = {body}
-        for b in range(body + 1, model.nbody):  # bodies are numbered depth-first: descendants follow their parent
-            if model.body_parentid[b] in subtree:
-                subtree.add(b)
-        static = [g for g in range(model.ngeom)
-                  if model.geom_bodyid[g] in subtree and model.body_weldid[model.geom_bodyid[g]] == 0
-                  and model.body_mocapid[model.body_rootid[model.geom_bodyid[g]]] == -1]
-        self._geoms = np.asarray(static, dtype=np.int64)
-        # static geom positions relative to the body's position parameter (its parent is the world)
-        self._offsets = (data.geom_xpos[static] - model.body_pos[body]).astype(np.float32)
-        self._device_consts: dict[torch.device, tuple[torch.Tensor, torch.Tensor]] = {}
-
-    def _consts(self, device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
-        if device not in self._device_consts:
-            self._device_consts[device] = (torch.as_tensor(self._geoms, device=device),
-                                           torch.as_tensor(self._offsets, device=device))
-        return self._device_consts[device]
-
-    def place(self, s: TaskState, pos: torch.Tensor, mask: torch.Tensor) -> None:
-        """Put the fixture at ``pos`` (``[n, 3]``, its ``body_pos``) in the worlds of ``mask``."""
-        field = s.sim.model_field("body_pos")[:, self.body]
-        field.copy_(torch.where(mask[:, None], pos, field))
-        if len(self._geoms) == 0:
-            return
-        geoms, offsets = self._consts(pos.device)
-        geom_xpos = s.extra.get(_GEOM_XPOS_KEY)
-        if geom_xpos is None:  # zero-copy view of the simulator's geom positions, made once per block
-            geom_xpos = s.extra[_GEOM_XPOS_KEY] = wp.to_torch(s.sim.data.geom_xpos)
-        new = pos[:, None, :] + offsets[None]
-        geom_xpos[:, geoms] = torch.where(mask[:, None, None], new, geom_xpos[:, geoms])
-
-
 class DrawerSceneMixin:
     """Model ids and reset writes of the drawer scene; mix into a ``MetaWorldTask`` subclass (listed first)."""
 
@@ -107,12 +54,11 @@ class DrawerSceneMixin:
         self.slide_qpos = self.joint_qposadr(SLIDE_JOINT)
         self.cabinet_body = self.body_id(CABINET_BODY)
         self.drawer_body = self.body_id(DRAWER_BODY)
-        self.cabinet = StaticFixture(model, self.cabinet_body)
 
     def place_drawer(self, s: TaskState, cabinet: torch.Tensor, slide: float, mask: torch.Tensor) -> None:
         """Move the cabinet to ``cabinet`` ([n, 3]) and set the slide to ``slide`` (velocity is zero after the
         robot reset) in the worlds of ``mask``."""
-        self.cabinet.place(s, cabinet, mask)
+        self.set_body_pos(s.sim, self.cabinet_body, cabinet, mask)
         q = s.sim.qpos[:, self.slide_qpos]
         q.copy_(torch.where(mask, slide, q))
 

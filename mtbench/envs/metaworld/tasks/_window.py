@@ -20,7 +20,6 @@ import torch
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec
 from ..task import TaskState
-from ._drawer import StaticFixture
 
 # Meta-World's init_config hand_init_pos of both window tasks
 SCENE = SceneSpec("sawyer_window_horizontal.xml", hand_init_pos=(0.0, 0.4, 0.2))
@@ -43,12 +42,11 @@ class WindowSceneMixin:
     def bind(self, model) -> None:
         self.slide_qpos = self.joint_qposadr(SLIDE_JOINT)
         self.window_body = self.body_id(WINDOW_BODY)
-        self.window = StaticFixture(model, self.window_body)  # the frame and the fixed sash are static geoms
         self.handle_site = self.site_id(self.handle_site_name)
 
     def place_window(self, s: TaskState, window: torch.Tensor, slide: float, mask: torch.Tensor) -> None:
         """Move the window frame to ``window`` ([n, 3]) and set the sash slide to ``slide`` in ``mask``'s worlds."""
-        self.window.place(s, window, mask)
+        self.set_body_pos(s.sim, self.window_body, window, mask)  # moves the frame's fixed geoms too
         q = s.sim.qpos[:, self.slide_qpos]
         q.copy_(torch.where(mask, slide, q))
 

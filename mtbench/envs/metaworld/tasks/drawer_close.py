@@ -39,8 +39,6 @@ class DrawerClose(DrawerSceneMixin, MetaWorldTask):
       means the drawer is open by at most 5.5 cm. (Meta-World's own rule ``‖handle − goal‖ ≤ 0.05 + 0.015``
       compares points 5 cm apart in height and needs the drawer within 3.2 cm of closed.)
     * Differences: the hand starts at the TCP position (0, 0.6, 0.2) (Meta-World's ``hand_init_pos``).
-    * Physics note: the cabinet is a static body placed per world with :class:`._drawer.StaticFixture`, which also
-      moves its collision geoms (MuJoCo Warp never updates static geoms).
     """
 
     name = "drawer_close"
@@ -62,7 +60,7 @@ class DrawerClose(DrawerSceneMixin, MetaWorldTask):
         return shift(self.drawer_link_pos(s), CLOSE_HANDLE_OFFSET)
 
     def object_state(self, s: TaskState) -> torch.Tensor:
-        pose = torch.cat([self.handle_pos(s), torch.zeros(s.n, 4, device=s.device)], dim=-1)
+        pose = torch.cat([self.handle_pos(s), s.tcp.new_zeros(s.n, 4)], dim=-1)
         return pad_object_state(pose)
 
     def evaluate(self, s, action, obs):

@@ -44,9 +44,7 @@ class DrawerOpen(DrawerSceneMixin, MetaWorldTask):
     * Physics note: the Panda hand (10.4 cm either side of the TCP along the finger axis, its underside 3.7 cm
       above the TCP) cannot get a finger fully behind the handle bar (the drawer's front wall, 5 cm behind the
       bar, stops the hand; the Sawyer's long fingers reach past it). The drawer still opens by hooking a fingertip
-      over the back of the round bar from above (see the scripted policy). The cabinet is a static body: it is
-      placed with :class:`._drawer.StaticFixture`, which also moves its collision geoms (MuJoCo Warp never
-      updates static geoms).
+      over the back of the round bar from above (see the scripted policy).
     """
 
     name = "drawer_open"

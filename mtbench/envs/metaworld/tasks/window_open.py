@@ -28,9 +28,7 @@ class WindowOpen(WindowSceneMixin, MetaWorldTask):
       Meta-World reads the site before its kinematics are updated, i.e. at the previous episode's window
       position (the same point whenever the window did not move). The hand starts with the TCP at Meta-World's
       ``hand_init_pos`` (0, 0.4, 0.2).
-    * Physics note: the window frame (and the fixed pane) are static bodies placed per world with
-      :class:`._drawer.StaticFixture`, which also moves their collision geoms (MuJoCo Warp never updates static
-      geoms). The Panda hand pushes the handle bar and its upper arm from the side (see the scripted policy).
+    * Physics note: the side of the Panda hand pushes the handle (see the scripted policy).
     """
 
     name = "window_open"
@@ -47,7 +45,7 @@ class WindowOpen(WindowSceneMixin, MetaWorldTask):
         s.obj_init_pos.copy_(torch.where(mask[:, None], window, s.obj_init_pos))
 
     def object_state(self, s: TaskState) -> torch.Tensor:
-        pose = torch.cat([self.handle_pos(s), torch.zeros(s.n, 4, device=s.device)], dim=-1)
+        pose = torch.cat([self.handle_pos(s), s.tcp.new_zeros(s.n, 4)], dim=-1)
         return pad_object_state(pose)
 
     def evaluate(self, s, action, obs):
