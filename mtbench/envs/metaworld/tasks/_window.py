@@ -35,7 +35,7 @@ OBJ_INIT_KEY = "window_handle_init"
 
 class WindowSceneMixin:
     """Model ids, reset writes and the handle-at-reset buffer of the window scene; mix into a ``MetaWorldTask``
-    subclass (listed first) that sets ``handle_site`` (a site name)."""
+    subclass (listed first) that sets ``handle_site_name``."""
 
     handle_site_name: str
 
