@@ -193,7 +193,7 @@ class WarpSim:
         torch_stream = torch.cuda.current_stream(self.device)
         wp_stream = wp.stream_from_torch(torch_stream)
         capturing = torch.cuda.is_current_stream_capturing()
-        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream):
+        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream, sync_enter=False):
             if capturing:
                 with wp.ScopedCapture(device=self.wp_device, stream=wp_stream, external=True):
                     self._step_impl()
@@ -208,7 +208,7 @@ class WarpSim:
             return
         wp_stream = wp.stream_from_torch(torch.cuda.current_stream(self.device))
         capturing = torch.cuda.is_current_stream_capturing()
-        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream):
+        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream, sync_enter=False):
             if capturing:
                 with wp.ScopedCapture(device=self.wp_device, stream=wp_stream, external=True):
                     fn()

@@ -97,6 +97,7 @@ class MetaWorldEnv(EnvBase):
         self.rand = rand
         self.reward_scale = float(reward_scale)
         self.random_start_progress = random_start_progress
+        self._seed = int(seed)
         self._generator = torch.Generator(device=dev)
         self._generator.manual_seed(seed)
         self.blocks: list[tuple[MetaWorldTask, TaskState]] = []
@@ -253,6 +254,9 @@ class MetaWorldEnv(EnvBase):
                           "continuing with per-block physics graphs (cuda_graph=False)", stacklevel=2)
             self._use_cuda_graph = False
             self._restore_state(snapshot)
+            # the generator was registered with the failed graph: continue with a fresh, deterministic one
+            self._generator = torch.Generator(device=self.device)
+            self._generator.manual_seed(self._seed + 7919 * (self._eager_steps + 1))
             return
         finally:
             for _, s in self.blocks:
