@@ -95,7 +95,7 @@ class MCAPRun:
         self._sequence: dict[int, int] = {}
         self._file = open(path, "wb")  # noqa: SIM115 - closed in close()
         try:
-            self._writer = Writer(self._file, chunk_size=chunk_size, compression=_COMPRESSIONS[compression])
+            self._writer = Writer(self._file, chunk_size=chunk_size, compression=_COMPRESSIONS[_available(compression)])
             if not hasattr(self._writer, "flush"):
                 raise ImportError("MCAPLogger needs mcap>=1.6 (Writer.flush); upgrade the 'mcap' package")
             self._writer.start(profile="", library=f"mtbench/{mtbench.__version__}; {LIBRARY_IDENTIFIER}")
@@ -674,3 +674,14 @@ class MCAPLogger(Logger):
                 experiment.close()
             except Exception:  # noqa: BLE001 - never raise from a finalizer
                 pass
+
+
+def _available(compression: str) -> str:
+    """``compression`` if its codec is installed, else the next available of zstd -> lz4 -> none."""
+    import importlib.util
+
+    codecs = {"zstd": "zstandard", "lz4": "lz4"}
+    for name in (compression, "zstd", "lz4"):
+        if name == "none" or (name in codecs and importlib.util.find_spec(codecs[name]) is not None):
+            return name
+    return "none"

@@ -138,6 +138,7 @@ class WarpSim:
         self._graphs: dict[str, object] = {}
         # True while an enclosing whole-step torch CUDA graph is being captured: run Warp work inline
         self.inline_mode = False
+        self.inline_style = os.environ.get("MTBENCH_INLINE_STYLE", "nested")
         if use_graph:
             self._capture()
 
@@ -184,36 +185,39 @@ class WarpSim:
 
     # ---------------------------------------------------------------- public API
     def step_inline(self) -> None:
-        """Enqueue the physics on the current torch stream without Warp graphs, for use inside an enclosing
-        ``torch.cuda.graph`` capture (Warp joins it as an external capture, keeping its conditional solver
-        loops). On the CPU this is :meth:`launch_step`."""
-        if self.stream is None:
-            self.launch_step()
-            return
-        torch_stream = torch.cuda.current_stream(self.device)
-        wp_stream = wp.stream_from_torch(torch_stream)
-        capturing = torch.cuda.is_current_stream_capturing()
-        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream, sync_enter=False):
-            if capturing:
-                with wp.ScopedCapture(device=self.wp_device, stream=wp_stream, external=True):
-                    self._step_impl()
-            else:
-                self._step_impl()
+        """Enqueue the physics on the current torch stream, for use inside an enclosing ``torch.cuda.graph``
+        capture. ``inline_style`` selects how: ``"nested"`` launches the block's own captured Warp graph (a child
+        graph of the enclosing capture, conditional solver loops included); ``"external"`` enqueues the Warp
+        kernels directly (Warp joins the capture as an external capture); ``"unrolled"`` is ``"external"``
+        with the solver's conditional loop replaced by a fixed number of iterations. On the CPU this is
+        :meth:`launch_step`."""
+        self._inline("step", self._step_impl)
 
     def inline(self, name: str) -> None:
         """Like :meth:`step_inline` for ``"reset"`` or ``"kin"``."""
-        fn = {"reset": self._reset_impl, "kin": self._kinematics_impl}[name]
+        self._inline(name, {"reset": self._reset_impl, "kin": self._kinematics_impl}[name])
+
+    def _inline(self, name: str, fn) -> None:
         if self.stream is None:
             self._run(name, fn)
             return
         wp_stream = wp.stream_from_torch(torch.cuda.current_stream(self.device))
         capturing = torch.cuda.is_current_stream_capturing()
-        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream, sync_enter=False):
-            if capturing:
-                with wp.ScopedCapture(device=self.wp_device, stream=wp_stream, external=True):
+        if self.inline_style == "nested" and self.use_graph:
+            wp.capture_launch(self._graphs[name], stream=wp_stream)
+            return
+        conditional = self.model.opt.graph_conditional
+        if self.inline_style == "unrolled":
+            self.model.opt.graph_conditional = False
+        try:
+            with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream, sync_enter=False):
+                if capturing:
+                    with wp.ScopedCapture(device=self.wp_device, stream=wp_stream, external=True):
+                        fn()
+                else:
                     fn()
-            else:
-                fn()
+        finally:
+            self.model.opt.graph_conditional = conditional
 
     def launch_step(self) -> None:
         """Enqueue ``substeps`` physics steps followed by kinematics (asynchronous on the GPU)."""

@@ -107,8 +107,9 @@ def run(cfg: DictConfig, env: Any = None) -> Trainer:
     print(f"\nPer-task success over the last {trainer.window.window} iterations "
           f"({trainer.frames:,} frames, {trainer.skipped_updates} skipped updates):")
     print(trainer.success_table(), flush=True)
-    if trainer.checkpoint_final:
-        print(f"checkpoint: {Path(trainer.checkpoint_dir) / 'final.pt'}")
+    final = Path(trainer.checkpoint_dir) / "final.pt"
+    if trainer.checkpoint_final and trainer.iteration >= trainer.total_iterations and final.exists():
+        print(f"checkpoint: {final}")
     return trainer
 
 
