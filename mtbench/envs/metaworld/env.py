@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import warnings
 from typing import Sequence
 
@@ -49,7 +50,8 @@ class MetaWorldEnv(EnvBase):
         nconmax, njmax: contact / constraint buffer sizes per world.
         use_graph: capture physics as graphs (CUDA graphs on the GPU, Warp CPU graphs on the CPU).
         cuda_graph: on the GPU, capture the whole env step (action, physics of every block, observation,
-            reward, statistics, autoreset) as one CUDA graph after a few eager warm-up steps.
+            reward, statistics, autoreset) as one CUDA graph after a few eager warm-up steps. ``None`` reads the
+            environment variable ``MTBENCH_CUDA_GRAPH`` (default on; ``0`` turns it off).
         parallel_streams: on the GPU, run the task blocks' physics concurrently on one CUDA stream each.
     """
 
@@ -70,7 +72,7 @@ class MetaWorldEnv(EnvBase):
         nconmax: int | None = 96,
         njmax: int | None = 320,
         use_graph: bool = True,
-        cuda_graph: bool = True,
+        cuda_graph: bool | None = None,
         parallel_streams: bool = True,
     ) -> None:
         tasks = list(tasks)
@@ -127,6 +129,8 @@ class MetaWorldEnv(EnvBase):
         self._vec_sampled = torch.zeros(num_envs, dtype=torch.bool, device=dev)
         self._stats = torch.zeros(5, self.num_tasks, device=dev)  # episodes, success, return, length, unhealthy
         self._parallel_streams = parallel_streams
+        if cuda_graph is None:
+            cuda_graph = os.environ.get("MTBENCH_CUDA_GRAPH", "1") != "0"
         self._use_cuda_graph = cuda_graph and dev.type == "cuda" and use_graph
         self._graph: torch.cuda.CUDAGraph | None = None
         self._eager_steps = 0
