@@ -23,8 +23,8 @@ def _sync(device: torch.device) -> None:
 
 
 def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, substeps: int | None,
-            cuda_graph: bool = True, parallel_streams: bool = True) -> dict:
-    overrides = {"cuda_graph": cuda_graph, "parallel_streams": parallel_streams}
+            parallel_streams: bool = True) -> dict:
+    overrides = {"parallel_streams": parallel_streams}
     if substeps is not None:
         overrides["substeps"] = substeps
     t0 = time.perf_counter()
@@ -54,8 +54,7 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         "ms_per_step": 1e3 * elapsed / steps,
         "build_s": build_s,
         "unhealthy_resets": float(stats["unhealthy"].sum()),
-        "mode": ("whole-step graph" if env._graph is not None else "per-block graphs")
-        + (", streams" if parallel_streams else ", one stream"),
+        "mode": "per-block graphs" + (", streams" if parallel_streams else ", one stream"),
     }
 
 
@@ -67,7 +66,6 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=300)
     parser.add_argument("--warmup", type=int, default=20)
     parser.add_argument("--substeps", type=int, default=None)
-    parser.add_argument("--no-cuda-graph", action="store_true", help="per-block physics graphs only")
     parser.add_argument("--one-stream", action="store_true", help="all task blocks on one CUDA stream")
     args = parser.parse_args()
     name = torch.cuda.get_device_name() if args.device.startswith("cuda") else platform.processor() or "cpu"
@@ -76,7 +74,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|")
     for n in args.num_envs:
         r = measure(args.env, n, args.device, args.steps, args.warmup, args.substeps,
-                    cuda_graph=not args.no_cuda_graph, parallel_streams=not args.one_stream)
+                    parallel_streams=not args.one_stream)
         print(f"| {r['env']} | {r['num_envs']} | {r['mode']} | {r['substeps']} | {r['env_steps_per_s']:,.0f} | "
               f"{r['physics_steps_per_s']:,.0f} | {r['ms_per_step']:.2f} | {r['build_s']:.1f} | "
               f"{r['unhealthy_resets']:.0f} |", flush=True)

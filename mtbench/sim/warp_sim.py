@@ -14,7 +14,6 @@ from typing import Sequence
 
 import mujoco
 import mujoco_warp as mjw
-import numpy as np
 import torch
 import warp as wp
 
@@ -136,9 +135,6 @@ class WarpSim:
         self._overflow = wp.to_torch(d.overflow)
         self._static_geoms = self._static_geom_table()
         self._graphs: dict[str, object] = {}
-        # True while an enclosing whole-step torch CUDA graph is being captured: run Warp work inline
-        self.inline_mode = False
-        self.inline_style = os.environ.get("MTBENCH_INLINE_STYLE", "nested")
         if use_graph:
             self._capture()
 
@@ -184,41 +180,6 @@ class WarpSim:
                 fn()
 
     # ---------------------------------------------------------------- public API
-    def step_inline(self) -> None:
-        """Enqueue the physics on the current torch stream, for use inside an enclosing ``torch.cuda.graph``
-        capture. ``inline_style`` selects how: ``"nested"`` launches the block's own captured Warp graph (a child
-        graph of the enclosing capture, conditional solver loops included); ``"external"`` enqueues the Warp
-        kernels directly (Warp joins the capture as an external capture); ``"unrolled"`` is ``"external"``
-        with the solver's conditional loop replaced by a fixed number of iterations. On the CPU this is
-        :meth:`launch_step`."""
-        self._inline("step", self._step_impl)
-
-    def inline(self, name: str) -> None:
-        """Like :meth:`step_inline` for ``"reset"`` or ``"kin"``."""
-        self._inline(name, {"reset": self._reset_impl, "kin": self._kinematics_impl}[name])
-
-    def _inline(self, name: str, fn) -> None:
-        if self.stream is None:
-            self._run(name, fn)
-            return
-        wp_stream = wp.stream_from_torch(torch.cuda.current_stream(self.device))
-        capturing = torch.cuda.is_current_stream_capturing()
-        if self.inline_style == "nested" and self.use_graph:
-            wp.capture_launch(self._graphs[name], stream=wp_stream)
-            return
-        conditional = self.model.opt.graph_conditional
-        if self.inline_style == "unrolled":
-            self.model.opt.graph_conditional = False
-        try:
-            with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream, sync_enter=False):
-                if capturing:
-                    with wp.ScopedCapture(device=self.wp_device, stream=wp_stream, external=True):
-                        fn()
-                else:
-                    fn()
-        finally:
-            self.model.opt.graph_conditional = conditional
-
     def launch_step(self) -> None:
         """Enqueue ``substeps`` physics steps followed by kinematics (asynchronous on the GPU)."""
         self._run("step", self._step_impl)
@@ -241,18 +202,12 @@ class WarpSim:
             self._key_ids_t.copy_(torch.where(mask, 0, -1).to(self._key_ids_t.dtype))
         else:
             wp.to_torch(self._reset_mask).copy_(mask)
-        if self.inline_mode:
-            self.inline("reset")
-        else:
-            with self._on_own_stream():
-                self._run("reset", self._reset_impl)
+        with self._on_own_stream():
+            self._run("reset", self._reset_impl)
         self._overflow.masked_fill_(mask, 0)
 
     def kinematics(self) -> None:
         """Recompute positions/orientations of bodies and sites from ``qpos`` (after writing the state)."""
-        if self.inline_mode:
-            self.inline("kin")
-            return
         with self._on_own_stream():
             self._run("kin", self._kinematics_impl)
 
@@ -365,12 +320,10 @@ class _StreamJoin:
         return False
 
 
-def step_all(sims: Sequence[WarpSim], *, inline: bool = False, parallel_streams: bool = True) -> None:
-    """Step several blocks; on the GPU each block runs on its own CUDA stream (concurrently).
-
-    ``inline=True`` enqueues the Warp kernels directly (no Warp graphs) so that an enclosing
-    ``torch.cuda.graph`` capture records them; ``parallel_streams=False`` keeps every block on the current stream.
-    """
+def step_all(sims: Sequence[WarpSim], *, parallel_streams: bool = True) -> None:
+    """Step several blocks; on the GPU each block's graph runs on its own CUDA stream (concurrently), ordered
+    after and joined back into the current torch stream. ``parallel_streams=False`` launches every block's graph
+    on the current stream instead."""
     if not sims:
         return
     if sims[0].stream is None:
@@ -380,15 +333,11 @@ def step_all(sims: Sequence[WarpSim], *, inline: bool = False, parallel_streams:
     main = torch.cuda.current_stream(sims[0].device)
     if not parallel_streams:
         for sim in sims:
-            sim.step_inline() if inline else sim.launch_step_on(main)
+            sim.launch_step_on(main)
         return
     for sim in sims:
         sim.stream.wait_stream(main)
         with torch.cuda.stream(sim.stream):
-            sim.step_inline() if inline else sim.launch_step()
+            sim.launch_step()
     for sim in sims:
         main.wait_stream(sim.stream)
-
-
-def as_numpy(x: torch.Tensor) -> np.ndarray:
-    return x.detach().cpu().numpy()

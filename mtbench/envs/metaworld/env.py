@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import warnings
 from typing import Sequence
 
 import torch
@@ -24,7 +22,7 @@ class MetaWorldEnv(EnvBase):
     """Meta-World manipulation tasks on a Franka Panda, ``sum(task_counts)`` worlds in contiguous task blocks.
 
     Each task is its own MuJoCo Warp model (one kinematic tree per batch); on the GPU the blocks step
-    concurrently on separate CUDA streams, each as a captured CUDA graph.
+    concurrently on separate CUDA streams, each block's physics as a captured CUDA graph.
 
     Observation: Meta-World's 39-d layout ``[tcp(3), gripper_open(1), obj1 pos+quat(7), obj2 pos+quat(7),
     previous 18-d frame, goal(3)]`` followed by the one-hot task id (``K`` dims). Quaternions are MuJoCo's wxyz.
@@ -49,9 +47,6 @@ class MetaWorldEnv(EnvBase):
             not counted in the episode statistics.
         nconmax, njmax: contact / constraint buffer sizes per world.
         use_graph: capture physics as graphs (CUDA graphs on the GPU, Warp CPU graphs on the CPU).
-        cuda_graph: on the GPU, capture the whole env step (action, physics of every block, observation,
-            reward, statistics, autoreset) as one CUDA graph after a few eager warm-up steps. ``None`` reads the
-            environment variable ``MTBENCH_CUDA_GRAPH`` (default on; ``0`` turns it off).
         parallel_streams: on the GPU, run the task blocks' physics concurrently on one CUDA stream each.
     """
 
@@ -72,7 +67,6 @@ class MetaWorldEnv(EnvBase):
         nconmax: int | None = 96,
         njmax: int | None = 320,
         use_graph: bool = True,
-        cuda_graph: bool | None = None,
         parallel_streams: bool = True,
     ) -> None:
         tasks = list(tasks)
@@ -99,7 +93,6 @@ class MetaWorldEnv(EnvBase):
         self.rand = rand
         self.reward_scale = float(reward_scale)
         self.random_start_progress = random_start_progress
-        self._seed = int(seed)
         self._generator = torch.Generator(device=dev)
         self._generator.manual_seed(seed)
         self.blocks: list[tuple[MetaWorldTask, TaskState]] = []
@@ -129,13 +122,6 @@ class MetaWorldEnv(EnvBase):
         self._vec_sampled = torch.zeros(num_envs, dtype=torch.bool, device=dev)
         self._stats = torch.zeros(5, self.num_tasks, device=dev)  # episodes, success, return, length, unhealthy
         self._parallel_streams = parallel_streams
-        if cuda_graph is None:
-            cuda_graph = os.environ.get("MTBENCH_CUDA_GRAPH", "1") != "0"
-        self._use_cuda_graph = cuda_graph and dev.type == "cuda" and use_graph
-        self._graph: torch.cuda.CUDAGraph | None = None
-        self._eager_steps = 0
-        self._static_action = torch.zeros(num_envs, ACTION_DIM, device=dev)
-        self._out: dict[str, torch.Tensor] = {}
         self._make_specs()
 
     # ------------------------------------------------------------------ specs
@@ -213,26 +199,13 @@ class MetaWorldEnv(EnvBase):
 
     # ------------------------------------------------------------------ EnvBase API
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        self._static_action.copy_(tensordict.get("action"))
-        if self._use_cuda_graph:
-            if self._graph is None and self._eager_steps >= 3:
-                self._capture_step()
-            if self._graph is not None:
-                self._graph.replay()
-            elif not self._use_cuda_graph:  # capture failed: eager from now on
-                self._core_step()
-            else:
-                self._eager_steps += 1
-                self._core_step()
-        else:
-            self._core_step()
-        out = self._out
+        out = self._core_step(tensordict.get("action"))
         return TensorDict(
             {
-                "observation": out["observation"].clone(),
+                "observation": out["observation"],
                 "task_id": self.task_id,
-                "reward": out["reward"].clone(),
-                "done": out["done"].clone(),
+                "reward": out["reward"],
+                "done": out["done"],
                 "terminated": torch.zeros_like(out["done"]),
                 "truncated": out["done"].clone(),
             },
@@ -240,47 +213,12 @@ class MetaWorldEnv(EnvBase):
             device=self.device,
         )
 
-    def _capture_step(self) -> None:
-        """Record one env step (all blocks, all torch work) as a CUDA graph; replays run it without Python."""
-        for _, s in self.blocks:
-            s.sim.inline_mode = True
-        graph = torch.cuda.CUDAGraph()
-        if hasattr(graph, "register_generator_state"):
-            graph.register_generator_state(self._generator)
-        side = torch.cuda.Stream(self.device)
-        side.wait_stream(torch.cuda.current_stream(self.device))
-        snapshot = self._state_snapshot()
-        try:
-            with torch.cuda.graph(graph, stream=side):
-                self._core_step()
-        except Exception as err:  # noqa: BLE001 - fall back to per-block graphs, loudly
-            warnings.warn(f"whole-step CUDA graph capture failed ({type(err).__name__}: {err}); "
-                          "continuing with per-block physics graphs (cuda_graph=False)", stacklevel=2)
-            self._use_cuda_graph = False
-            self._restore_state(snapshot)
-            # the generator was registered with the failed graph: continue with a fresh, deterministic one
-            self._generator = torch.Generator(device=self.device)
-            self._generator.manual_seed(self._seed + 7919 * (self._eager_steps + 1))
-            return
-        finally:
-            for _, s in self.blocks:
-                s.sim.inline_mode = False
-        torch.cuda.current_stream(self.device).wait_stream(side)
-        self._graph = graph
-
-    def _state_snapshot(self) -> dict[str, torch.Tensor]:
-        return {k: getattr(self, k).clone() for k in ("_step_count", "_ep_return", "_ep_success", "_prev_frame")}
-
-    def _restore_state(self, snapshot: dict[str, torch.Tensor]) -> None:
-        for k, v in snapshot.items():
-            getattr(self, k).copy_(v)
-
-    def _core_step(self) -> None:
-        """One control step of every world from ``self._static_action`` into ``self._out`` (in place)."""
-        action = self._static_action.clamp(-1.0, 1.0)
+    def _core_step(self, action: torch.Tensor) -> dict[str, torch.Tensor]:
+        """One control step of every world: action, physics of every block, observation, reward, statistics and
+        autoreset of finished worlds. All branch-free tensor work: no host synchronisation."""
+        action = action.clamp(-1.0, 1.0)
         self._apply_action(action)
-        capturing = self.device.type == "cuda" and torch.cuda.is_current_stream_capturing()
-        step_all([s.sim for _, s in self.blocks], inline=capturing, parallel_streams=self._parallel_streams)
+        step_all([s.sim for _, s in self.blocks], parallel_streams=self._parallel_streams)
         self._refresh_kinematic_quantities()
         frame = self._frames()
         reward, success = self._evaluate(action, frame)
@@ -300,7 +238,7 @@ class MetaWorldEnv(EnvBase):
         obs = self._observation(frame)
         self._prev_frame.copy_(frame)
         self._begin_episode(done)
-        self._out = {"observation": obs, "reward": reward[:, None], "done": done[:, None]}
+        return {"observation": obs, "reward": reward[:, None], "done": done[:, None]}
 
     def _accumulate_stats(self, done: torch.Tensor, unhealthy: torch.Tensor) -> None:
         counted = (done & self._ep_counted).float()
