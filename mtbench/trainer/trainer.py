@@ -216,6 +216,7 @@ class Trainer:
         self.frames = 0
         self.updates = 0
         self.skipped_updates = 0
+        self.unhealthy_resets = 0.0  # env worlds reset after a NaN / runaway state / buffer overflow
         self.nonfinite_streak = 0
         self.max_nonfinite_streak = int(cfg.get("max_nonfinite_iterations", 10))
         self.window = EpisodeStatsWindow(self.task_names, int(cfg.get("success_window", 5)))
@@ -317,6 +318,7 @@ class Trainer:
         """Collect one batch, update, and return this iteration's scalar metrics."""
         t0 = time.perf_counter()
         data, stats = self.collect()
+        unhealthy = stats.get("unhealthy", None) if hasattr(stats, "get") else None
         self.window.push(stats)  # device -> host copy: also ends the collection timing on GPU
         t1 = time.perf_counter()
         means = self.update(data)
@@ -348,6 +350,9 @@ class Trainer:
         for key, value in metrics.items():
             out[f"loss/{key[5:]}" if key.startswith("loss_") else f"train/{key}"] = value
         out.update(self.window.summary())
+        if unhealthy is not None:  # worlds the env reset after a NaN / runaway state / buffer overflow
+            self.unhealthy_resets += float(unhealthy.sum())
+            out["env/unhealthy_resets_total"] = self.unhealthy_resets
         if skipped:
             warnings.warn(
                 f"iteration {self.iteration}: {skipped}/{self.epochs * self.num_minibatches} minibatch updates "
@@ -418,6 +423,7 @@ class Trainer:
                 "frames": self.frames,
                 "updates": self.updates,
                 "skipped_updates": self.skipped_updates,
+                "unhealthy_resets": self.unhealthy_resets,
                 "nonfinite_streak": self.nonfinite_streak,
             },
             "loss": self.loss.state_dict(),
@@ -466,6 +472,7 @@ class Trainer:
         c = state["counters"]
         self.iteration, self.frames = int(c["iteration"]), int(c["frames"])
         self.updates, self.skipped_updates = int(c["updates"]), int(c["skipped_updates"])
+        self.unhealthy_resets = float(c.get("unhealthy_resets", 0.0))
         self.nonfinite_streak = int(c.get("nonfinite_streak", 0))
         self.loss.load_state_dict(state["loss"])
         if state.get("update_module") is not None and self.update_module is not self.loss:
