@@ -180,7 +180,9 @@ def test_cpu_default_overrides() -> None:
     assert cpu_default_overrides(["env=mt10_rand"], cuda_available=False) == []
     with initialize_config_dir(config_dir=CONF, version_base="1.3"):
         cfg = compose("config", overrides=["env=cpu_small"])
-    assert cfg.env.name == "mt10_rand" and cfg.loss.minibatch_size == 320 and cfg.max_iterations == 150
+    assert list(cfg.env.name) == ["reach", "drawer_close", "button_press_topdown"]
+    assert cfg.loss.minibatch_size == 384 and cfg.max_iterations == 100
+    assert (cfg.env.num_envs * cfg.loss.horizon) % cfg.loss.minibatch_size == 0
     with initialize_config_dir(config_dir=CONF, version_base="1.3"):
         grpo = compose("config", overrides=["env=mt10_rand", "loss=grpo"])
     assert (grpo.env.num_envs, grpo.loss.horizon, grpo.loss.minibatch_size, grpo.max_iterations) == (4096, 150, 38400, 1908)
