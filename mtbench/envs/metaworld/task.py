@@ -139,6 +139,37 @@ class MetaWorldTask:
         return torch.cat([s.sim.xpos[:, body], s.sim.xquat[:, body]], dim=-1)
 
 
+class FreeObjectTask(MetaWorldTask):
+    """A task with one free object (Meta-World's body ``obj`` on joint ``objjoint``) and a goal. Reset vector:
+    object xyz then goal xyz; goals closer than ``MIN_GOAL_DIST`` (in xy) to the object are resampled, as
+    Meta-World does (a fixed number of rounds: no data-dependent loop)."""
+
+    MIN_GOAL_DIST: ClassVar[float] = 0.15
+
+    def bind(self, model: mujoco.MjModel) -> None:
+        self.obj_qpos = self.joint_qposadr("objjoint")
+        self.obj_body = self.body_id("obj")
+
+    def sample(self, n: int, generator: torch.Generator, device: torch.device) -> torch.Tensor:
+        vec = super().sample(n, generator, device)
+        for _ in range(8):
+            close = (vec[:, :2] - vec[:, 3:5]).norm(dim=-1) < self.MIN_GOAL_DIST
+            vec = torch.where(close[:, None], super().sample(n, generator, device), vec)
+        return vec
+
+    def place(self, s: TaskState, obj: torch.Tensor, goal: torch.Tensor, mask: torch.Tensor) -> None:
+        """Put the object at ``obj`` and the goal at ``goal`` in the worlds of ``mask``."""
+        self.set_free_body(s.sim, self.obj_qpos, obj, mask)
+        s.obj_init_pos.copy_(torch.where(mask[:, None], obj, s.obj_init_pos))
+        s.goal.copy_(torch.where(mask[:, None], goal, s.goal))
+
+    def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
+        self.place(s, vec[:, :3], vec[:, 3:6], mask)
+
+    def object_state(self, s: TaskState) -> torch.Tensor:
+        return pad_object_state(self.body_pose(s, self.obj_body))
+
+
 def _unit_quat(like: torch.Tensor) -> torch.Tensor:
     q = torch.zeros(*like.shape[:-1], 4, device=like.device, dtype=like.dtype)
     q[..., 0] = 1.0

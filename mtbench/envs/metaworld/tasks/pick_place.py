@@ -6,11 +6,11 @@ import torch
 
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec
-from ..task import MetaWorldTask, TaskState, pad_object_state
+from ..task import FreeObjectTask
 from ._grasp import grasped_and_lifted, pick_place_caging_reward
 
 
-class PickPlace(MetaWorldTask):
+class PickPlace(FreeObjectTask):
     """Pick up the red puck (cylinder, radius 2 cm, height 4 cm, 0.75 kg) and bring it to the goal.
 
     Scene and reset: Meta-World ``sawyer_pick_place_v3.xml``; puck ~ U([-0.1, 0.6, 0.02], [0.1, 0.7, 0.02]),
@@ -33,26 +33,6 @@ class PickPlace(MetaWorldTask):
     reset_low = (-0.1, 0.6, 0.02, -0.1, 0.8, 0.05)
     reset_high = (0.1, 0.7, 0.02, 0.1, 0.9, 0.3)
     TARGET_RADIUS = 0.05
-    MIN_GOAL_DIST = 0.15
-
-    def bind(self, model) -> None:
-        self.obj_qpos = self.joint_qposadr("objjoint")
-        self.obj_body = self.body_id("obj")
-
-    def sample(self, n, generator, device):
-        vec = super().sample(n, generator, device)
-        for _ in range(8):
-            close = (vec[:, :2] - vec[:, 3:5]).norm(dim=-1) < self.MIN_GOAL_DIST
-            vec = torch.where(close[:, None], super().sample(n, generator, device), vec)
-        return vec
-
-    def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
-        self.set_free_body(s.sim, self.obj_qpos, vec[:, :3], mask)
-        s.obj_init_pos.copy_(torch.where(mask[:, None], vec[:, :3], s.obj_init_pos))
-        s.goal.copy_(torch.where(mask[:, None], vec[:, 3:6], s.goal))
-
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        return pad_object_state(self.body_pose(s, self.obj_body))
 
     def evaluate(self, s, action, obs):
         return self.reward_and_success(action, obs[:, 4:7], obs[:, 3], s.tcp, s.left_pad, s.right_pad, s.goal,

@@ -6,10 +6,10 @@ import torch
 
 from ..reward_utils import gripper_caging_reward, tolerance
 from ..scene import SceneSpec
-from ..task import MetaWorldTask, TaskState, pad_object_state
+from ..task import FreeObjectTask, TaskState
 
 
-class Push(MetaWorldTask):
+class Push(FreeObjectTask):
     """Push the red puck (cylinder, radius 2 cm, height 4 cm, 0.75 kg) to the green goal on the table.
 
     Scene and reset: Meta-World ``sawyer_push_v3.xml``; puck xy ~ U([-0.1, 0.6], [0.1, 0.7]) at z = 0.02 (resting
@@ -39,29 +39,12 @@ class Push(MetaWorldTask):
     OBJ_Z = 0.02  # puck centre height when resting on the table (Meta-World's obj_init_pos z)
     TARGET_RADIUS = 0.05
     TCP_RADIUS = 0.02  # MTBench success: hand still at the puck
-    MIN_GOAL_DIST = 0.15
-
-    def bind(self, model) -> None:
-        self.obj_qpos = self.joint_qposadr("objjoint")
-        self.obj_body = self.body_id("obj")
-
-    def sample(self, n, generator, device):
-        vec = super().sample(n, generator, device)
-        for _ in range(8):
-            close = (vec[:, :2] - vec[:, 3:5]).norm(dim=-1) < self.MIN_GOAL_DIST
-            vec = torch.where(close[:, None], super().sample(n, generator, device), vec)
-        return vec
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         z = torch.full_like(vec[:, :1], self.OBJ_Z)  # a fill, no host-to-device copy
         obj = torch.cat([vec[:, :2], z], dim=-1)
         goal = torch.cat([vec[:, 3:5], z], dim=-1)
-        self.set_free_body(s.sim, self.obj_qpos, obj, mask)
-        s.obj_init_pos.copy_(torch.where(mask[:, None], obj, s.obj_init_pos))
-        s.goal.copy_(torch.where(mask[:, None], goal, s.goal))
-
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        return pad_object_state(self.body_pose(s, self.obj_body))
+        self.place(s, obj, goal, mask)
 
     def evaluate(self, s, action, obs):
         obj = obs[:, 4:7]
