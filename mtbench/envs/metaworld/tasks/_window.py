@@ -19,7 +19,7 @@ import torch
 
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec
-from ..task import TaskState
+from ..task import TaskState, pad_object_state
 
 # Meta-World's init_config hand_init_pos of both window tasks
 SCENE = SceneSpec("sawyer_window_horizontal.xml", hand_init_pos=(0.0, 0.4, 0.2))
@@ -57,6 +57,10 @@ class WindowSceneMixin:
         if OBJ_INIT_KEY not in s.extra:
             s.extra[OBJ_INIT_KEY] = torch.zeros(s.n, 3, device=s.device)
         return s.extra[OBJ_INIT_KEY]
+
+    def object_state(self, s: TaskState) -> torch.Tensor:
+        """The handle position as object 1 (no orientation: zeros), as Meta-World's window tasks report it."""
+        return pad_object_state(torch.cat([self.handle_pos(s), s.tcp.new_zeros(s.n, 4)], dim=-1))
 
     def after_reset(self, s: TaskState, mask: torch.Tensor) -> None:
         # the handle point at the start of the episode (kinematics are fresh here)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from ..task import MetaWorldTask, TaskState, pad_object_state
+from ..task import MetaWorldTask, TaskState
 from ._window import SCENE, SLIDE_TRAVEL, WindowSceneMixin, window_reward, window_success
 
 
@@ -43,10 +43,6 @@ class WindowOpen(WindowSceneMixin, MetaWorldTask):
         goal = torch.stack([window[:, 0] + SLIDE_TRAVEL, window[:, 1], window[:, 2]], dim=-1)
         s.goal.copy_(torch.where(mask[:, None], goal, s.goal))
         s.obj_init_pos.copy_(torch.where(mask[:, None], window, s.obj_init_pos))
-
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        pose = torch.cat([self.handle_pos(s), s.tcp.new_zeros(s.n, 4)], dim=-1)
-        return pad_object_state(pose)
 
     def evaluate(self, s, action, obs):
         handle = self.handle_pos(s)
