@@ -150,9 +150,10 @@ class WarpSim:
         mjw.kinematics(self.model, self.data)
 
     def _reset_impl(self) -> None:
-        mjw.reset_data_keyframe(self.model, self.data, self._key_ids) if self._has_key else mjw.reset_data(
-            self.model, self.data, reset=self._reset_mask
-        )
+        if self._has_key:  # per-world key ids: -1 leaves a world untouched
+            mjw.reset_data_keyframe(self.model, self.data, self._key_ids)
+        else:
+            mjw.reset_data(self.model, self.data, reset=self._reset_mask)
 
     def _kinematics_impl(self) -> None:
         mjw.kinematics(self.model, self.data)
