@@ -72,6 +72,8 @@ class WarpSim:
             :meth:`model_field`.
         use_graph: capture step/reset/kinematics as graphs (CUDA graphs on GPU; Warp CPU graphs on CPU).
         reset_key: keyframe index used by :meth:`reset` (ignored when the model has no keyframe).
+        warn_overflow: let MuJoCo Warp print a message whenever a contact/constraint buffer overflows (off: the
+            overflow is reported per world by :meth:`unhealthy` instead).
     """
 
     def __init__(
@@ -86,6 +88,7 @@ class WarpSim:
         batched_fields: Sequence[str] = (),
         use_graph: bool = True,
         reset_key: int = 0,
+        warn_overflow: bool = False,
     ) -> None:
         if nworld < 1:
             raise ValueError(f"nworld must be positive, got {nworld}")
@@ -110,7 +113,9 @@ class WarpSim:
         with wp.ScopedDevice(self.wp_device):
             batch = {name: nworld for name in batched_fields} or None
             self.model = mjw.put_model(mjm, batch_sizes=batch)
-            self.model.opt.warn_overflow = FATAL_OVERFLOW  # warn only about overflows that matter
+            # no per-occurrence prints from inside the step: affected worlds are reported by unhealthy() (the
+            # env resets and counts them); warn_overflow=True prints MuJoCo Warp's messages for fatal overflows
+            self.model.opt.warn_overflow = FATAL_OVERFLOW if warn_overflow else 0
             self.data = mjw.put_data(mjm, data0, nworld=nworld, nconmax=nconmax, njmax=njmax)
             self._key_ids = wp.full(nworld, -1, dtype=int)
         self.stream: torch.cuda.Stream | None = None
