@@ -46,3 +46,10 @@ def grasp_phase(hand: torch.Tensor, grasp: torch.Tensor, opened: torch.Tensor, *
     target = torch.where(aligned[:, None], grasp, shifted(grasp, dz=above))
     target = torch.where(close[:, None], hand, target)  # wait while the fingers close
     return target, close, held
+
+
+# Grasp parameters shared by the puck policies (push, pick_place): the 4 cm puck, approached from 6 cm above.
+PUCK_GRASP = dict(above=0.06, xy_tol=0.01, grasp_tol=0.005, hold_tol=0.025,
+                  held_below=0.6,  # openness: open 0.91, closed on the 4 cm puck ~0.48
+                  empty_below=0.3)  # openness below which the gripper closed on nothing
+PUCK_CARRY_SPEED = 0.5  # |action| per axis while carrying the puck

@@ -116,8 +116,7 @@ class DoorOpen(MetaWorldTask):
         if int(handle.bodyid[0]) != self.link_body:
             raise RuntimeError("door handle geom is expected on body door_link")
         # handle geom frame relative to door_link (after MuJoCo's mesh re-centring)
-        self._handle_local = torch.tensor([*handle.pos, *handle.quat], dtype=torch.float32)
-        self._handle_on: dict[torch.device, torch.Tensor] = {}
+        self._handle_local = self.const([*handle.pos, *handle.quat])
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         self.set_body_pos(s.sim, self.door_body, vec[:, :3], mask)
@@ -131,9 +130,7 @@ class DoorOpen(MetaWorldTask):
         """World position and wxyz quaternion of the handle geom ``[n, 3], [n, 4]``."""
         link_pos = s.sim.xpos[:, self.link_body]
         link_quat = s.sim.xquat[:, self.link_body]
-        local = self._handle_on.get(link_pos.device)
-        if local is None:  # copied to the device once
-            local = self._handle_on.setdefault(link_pos.device, self._handle_local.to(link_pos.device))
+        local = self._handle_local
         pos = link_pos + quat_rotate(link_quat, local[:3].expand_as(link_pos))
         quat = quat_mul(link_quat, local[3:].expand_as(link_quat))
         return pos, quat
