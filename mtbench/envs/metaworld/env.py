@@ -155,8 +155,8 @@ class MetaWorldEnv(EnvBase):
     def _goals(self) -> torch.Tensor:
         return torch.cat([s.goal for _, s in self.blocks], dim=0)
 
-    def _observation(self, frame: torch.Tensor) -> torch.Tensor:
-        return torch.cat([frame, self._prev_frame, self._goals(), self._one_hot], dim=-1)
+    def _observation(self, frame: torch.Tensor, prev_frame: torch.Tensor) -> torch.Tensor:
+        return torch.cat([frame, prev_frame, self._goals(), self._one_hot], dim=-1)
 
     def _reset_worlds(self, mask: torch.Tensor) -> None:
         """Reset the worlds in ``mask`` (robot to its home pose, objects/goals resampled or kept)."""
@@ -179,7 +179,7 @@ class MetaWorldEnv(EnvBase):
             task.after_reset(s, mask[sl])
 
     def _apply_action(self, action: torch.Tensor) -> None:
-        action = action.clamp(-1.0, 1.0)
+        """Move each world's mocap target by the (already clamped) action and set the gripper force."""
         for (task, s), sl in zip(self.blocks, self.slices):
             a = action[sl]
             mocap = s.sim.mocap_pos[:, 0]
@@ -188,7 +188,7 @@ class MetaWorldEnv(EnvBase):
             s.sim.ctrl[:, 0] = -a[:, 3]  # tendon force: positive opens the fingers; action +1 closes
 
     def _evaluate(self, action: torch.Tensor, frame: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        obs = self._observation(frame)
+        obs = self._observation(frame, self._prev_frame)
         rewards, successes = [], []
         for (task, s), sl in zip(self.blocks, self.slices):
             dense, success = task.evaluate(s, action[sl], obs[sl])
@@ -234,8 +234,7 @@ class MetaWorldEnv(EnvBase):
         reset_frame = self._frames()
         frame = torch.where(done[:, None], reset_frame, frame)
         # Meta-World: the previous frame of an episode's first observation is that frame itself
-        self._prev_frame.copy_(torch.where(done[:, None], reset_frame, self._prev_frame))
-        obs = self._observation(frame)
+        obs = self._observation(frame, torch.where(done[:, None], reset_frame, self._prev_frame))
         self._prev_frame.copy_(frame)
         self._begin_episode(done)
         return {"observation": obs, "reward": reward[:, None], "done": done[:, None]}
@@ -259,8 +258,7 @@ class MetaWorldEnv(EnvBase):
             mask = tensordict.get("_reset").reshape(n).to(self.device)
         self._reset_worlds(mask)
         frame = self._frames()
-        self._prev_frame.copy_(torch.where(mask[:, None], frame, self._prev_frame))
-        obs = self._observation(frame)
+        obs = self._observation(frame, torch.where(mask[:, None], frame, self._prev_frame))
         self._prev_frame.copy_(frame)
         self._begin_episode(mask)
         if self.random_start_progress:
