@@ -318,7 +318,7 @@ class Trainer:
         """Collect one batch, update, and return this iteration's scalar metrics."""
         t0 = time.perf_counter()
         data, stats = self.collect()
-        unhealthy = stats.get("unhealthy", None) if hasattr(stats, "get") else None
+        unhealthy = stats.get("unhealthy", None)  # optional: envs other than mtbench's may not report it
         self.window.push(stats)  # device -> host copy: also ends the collection timing on GPU
         t1 = time.perf_counter()
         means = self.update(data)
