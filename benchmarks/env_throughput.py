@@ -2,6 +2,7 @@
 
 Measures everything an env step does: action -> mocap/ctrl, physics substeps (CUDA graphs), kinematics,
 observation, reward, success, statistics, native autoreset, TensorDict out (``env.step_and_maybe_reset``).
+On the GPU the env's torch stages replay CUDA graphs (``--eager-torch`` runs them op by op instead).
 
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 4096 --device cuda
 """
@@ -23,8 +24,8 @@ def _sync(device: torch.device) -> None:
 
 
 def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, substeps: int | None,
-            parallel_streams: bool = True) -> dict:
-    overrides = {"parallel_streams": parallel_streams}
+            parallel_streams: bool = True, torch_graphs: bool = True) -> dict:
+    overrides = {"parallel_streams": parallel_streams, "torch_graphs": torch_graphs}
     if substeps is not None:
         overrides["substeps"] = substeps
     t0 = time.perf_counter()
@@ -54,7 +55,8 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         "ms_per_step": 1e3 * elapsed / steps,
         "build_s": build_s,
         "unhealthy_resets": float(stats["unhealthy"].sum()),
-        "mode": "per-block graphs" + (", streams" if parallel_streams else ", one stream"),
+        "mode": ("torch stages graphed" if torch_graphs and dev.type == "cuda" else "torch stages eager")
+        + (", block streams" if parallel_streams else ", one stream"),
     }
 
 
@@ -67,6 +69,7 @@ def main() -> None:
     parser.add_argument("--warmup", type=int, default=20)
     parser.add_argument("--substeps", type=int, default=None)
     parser.add_argument("--one-stream", action="store_true", help="all task blocks on one CUDA stream")
+    parser.add_argument("--eager-torch", action="store_true", help="do not capture the env's torch stages")
     args = parser.parse_args()
     name = torch.cuda.get_device_name() if args.device.startswith("cuda") else platform.processor() or "cpu"
     print(f"device: {name}; torch {torch.__version__}; date {time.strftime('%Y-%m-%d')}")
@@ -74,7 +77,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|")
     for n in args.num_envs:
         r = measure(args.env, n, args.device, args.steps, args.warmup, args.substeps,
-                    parallel_streams=not args.one_stream)
+                    parallel_streams=not args.one_stream, torch_graphs=not args.eager_torch)
         print(f"| {r['env']} | {r['num_envs']} | {r['mode']} | {r['substeps']} | {r['env_steps_per_s']:,.0f} | "
               f"{r['physics_steps_per_s']:,.0f} | {r['ms_per_step']:.2f} | {r['build_s']:.1f} | "
               f"{r['unhealthy_resets']:.0f} |", flush=True)

@@ -126,6 +126,7 @@ class WarpSim:
         self._key_ids_t = wp.to_torch(self._key_ids)
         if not self._has_key:
             self._reset_mask = wp.zeros(nworld, dtype=bool, device=self.wp_device)
+            self._reset_mask_t = wp.to_torch(self._reset_mask)
         d = self.data
         # zero-copy torch views of the state (writes go straight to the simulator)
         self.qpos = wp.to_torch(d.qpos)
@@ -186,36 +187,47 @@ class WarpSim:
                 fn()
 
     # ---------------------------------------------------------------- public API
-    def launch_step(self) -> None:
-        """Enqueue ``substeps`` physics steps followed by kinematics (asynchronous on the GPU)."""
-        self._run("step", self._step_impl)
-
-    def launch_step_on(self, stream: torch.cuda.Stream) -> None:
-        """Launch the captured step graph on ``stream`` instead of the block's own stream."""
-        wp.capture_launch(self._graphs["step"], stream=wp.stream_from_torch(stream))
+    def launch(self, phase: str, stream: torch.cuda.Stream | None = None) -> None:
+        """Enqueue one captured phase: ``"step"`` (``substeps`` physics steps then kinematics), ``"reset"``
+        (the worlds staged by :meth:`stage_reset`) or ``"kin"`` (kinematics). Asynchronous on the GPU; on
+        ``stream`` if given, else on the block's own stream (no ordering with torch: see :func:`launch_all`)."""
+        fns = {"step": self._step_impl, "reset": self._reset_impl, "kin": self._kinematics_impl}
+        if phase not in fns:
+            raise ValueError(f"unknown phase {phase!r}; valid choices: {list(fns)}")
+        if stream is not None:
+            if not self.use_graph:
+                raise ValueError("launching on an explicit stream needs use_graph=True")
+            wp.capture_launch(self._graphs[phase], stream=wp.stream_from_torch(stream))
+        else:
+            self._run(phase, fns[phase])
 
     def step(self) -> None:
         """``substeps`` physics steps then kinematics, ordered after the current torch stream's work."""
         with self._on_own_stream():
-            self.launch_step()
+            self.launch("step")
+
+    def stage_reset(self, mask: torch.Tensor) -> None:
+        """Mark the worlds where ``mask`` (bool ``[nworld]``) is true for the next ``"reset"`` launch and clear
+        their overflow flags. Torch work only (safe inside a torch CUDA graph capture)."""
+        if self._has_key:
+            self._key_ids_t.copy_(torch.where(mask, 0, -1).to(self._key_ids_t.dtype))
+        else:
+            self._reset_mask_t.copy_(mask)
+        self._overflow.masked_fill_(mask, 0)
 
     def reset(self, mask: torch.Tensor) -> None:
         """Reset the worlds where ``mask`` (bool ``[nworld]``) is true to the keyframe (or ``qpos0``).
 
         No host synchronisation: the mask is copied into a persistent device array read by a captured graph.
         """
-        if self._has_key:
-            self._key_ids_t.copy_(torch.where(mask, 0, -1).to(self._key_ids_t.dtype))
-        else:
-            wp.to_torch(self._reset_mask).copy_(mask)
+        self.stage_reset(mask)
         with self._on_own_stream():
-            self._run("reset", self._reset_impl)
-        self._overflow.masked_fill_(mask, 0)
+            self.launch("reset")
 
     def kinematics(self) -> None:
         """Recompute positions/orientations of bodies and sites from ``qpos`` (after writing the state)."""
         with self._on_own_stream():
-            self._run("kin", self._kinematics_impl)
+            self.launch("kin")
 
     _STATE_FIELDS = ("qpos", "qvel", "act", "ctrl", "mocap_pos", "mocap_quat", "qacc", "qacc_warmstart", "time",
                      "geom_xpos")
@@ -326,24 +338,27 @@ class _StreamJoin:
         return False
 
 
-def step_all(sims: Sequence[WarpSim], *, parallel_streams: bool = True) -> None:
-    """Step several blocks; on the GPU each block's graph runs on its own CUDA stream (concurrently), ordered
-    after and joined back into the current torch stream. ``parallel_streams=False`` launches every block's graph
-    on the current stream instead."""
+def launch_all(sims: Sequence[WarpSim], phase: str = "step", *, parallel_streams: bool = True) -> None:
+    """Launch one phase (``"step"``, ``"reset"``, ``"kin"``: see :meth:`WarpSim.launch`) of several blocks,
+    ordered after and joined back into the current torch stream. On the GPU each block runs on its own CUDA
+    stream (concurrently); ``parallel_streams=False`` launches every block's graph on the current stream."""
     if not sims:
         return
     if sims[0].stream is None:
         for sim in sims:
-            sim.launch_step()
+            sim.launch(phase)
         return
     main = torch.cuda.current_stream(sims[0].device)
-    if not parallel_streams:
+    if not parallel_streams or not sims[0].use_graph:
         for sim in sims:
-            sim.launch_step_on(main)
+            if sim.use_graph:
+                sim.launch(phase, stream=main)
+            else:
+                with _StreamJoin(sim.stream):
+                    sim.launch(phase)
         return
     for sim in sims:
         sim.stream.wait_stream(main)
-        with torch.cuda.stream(sim.stream):
-            sim.launch_step()
+        sim.launch(phase)
     for sim in sims:
         main.wait_stream(sim.stream)

@@ -22,6 +22,7 @@ from ..objectives.gradients import total_loss
 from ..objectives.grpo import MTGRPOLoss
 from ..objectives.ppo import MTClipPPOBase, MTPPOLoss
 from ..transforms import PerTaskObservationNorm
+from ..utils import GraphedStage
 from .actor_critic import GaussianPolicyHead, make_actor, make_critic
 from .checkpoint import CHECKPOINT_VERSION, load_checkpoint, rng_state, save_checkpoint, seed_everything, set_rng_state
 from .metrics import EpisodeStatsWindow
@@ -163,11 +164,14 @@ class Trainer:
             self.critic = None
             self.loss = MTGRPOLoss(self.actor, **common).to(self.device)
         self.update_module = self._make_update_module(cfg.get("grad"))
+        self.graph_update = self._resolve_graph_update(cfg.get("cudagraph_update", "auto"))
 
         # ---------------------------------------------------------------- optimisation
         self.params = [p for p in self.loss.parameters() if p.requires_grad]
         self.lr = torch.tensor(float(lc.lr), device=self.device)
-        self.optimizer = torch.optim.Adam(self.params, lr=self.lr, eps=float(lc.adam_eps), fused=True)
+        self.optimizer = torch.optim.Adam(
+            self.params, lr=self.lr, eps=float(lc.adam_eps), fused=True, capturable=self.graph_update
+        )
         self.max_grad_norm = None if lc.get("max_grad_norm") is None else float(lc.max_grad_norm)
         self.adaptive_lr = lc.get("lr_schedule", "fixed") == "adaptive"
         self.kl_threshold = float(lc.get("kl_threshold", 0.008))
@@ -210,6 +214,19 @@ class Trainer:
             auto_register_policy_transforms=False,
         )
         self._iterator = iter(self.collector)
+        # the minibatch update replayed from a CUDA graph (cudagraph_update): a static minibatch is filled by
+        # index_select, the graph runs loss -> backward -> clip -> Adam and writes the metrics into one vector
+        self._static_minibatch: TensorDictBase | None = None
+        self._metric_keys: list[str] | None = None
+        self._metric_buf: torch.Tensor | None = None
+        self._update_stage = GraphedStage(
+            self._static_update_step,
+            self.device,
+            warmup=3,
+            stream=torch.cuda.Stream(self.device) if self.graph_update else None,
+            enabled=self.graph_update,
+            name="minibatch update",
+        )
 
         # ---------------------------------------------------------------- bookkeeping
         self.iteration = 0
@@ -240,6 +257,16 @@ class Trainer:
         kwargs = OmegaConf.to_container(grad_cfg, resolve=True) if OmegaConf.is_config(grad_cfg) else dict(grad_cfg)
         name = str(kwargs.pop("name", "none"))
         return make_gradient_method(name, self.loss, self.num_tasks, **kwargs)
+
+    def _resolve_graph_update(self, value: Any) -> bool:
+        """``cudagraph_update``: ``auto`` = on for CUDA with the plain loss (``grad=none``), ``true`` / ``false``."""
+        if value is None or str(value) == "auto":
+            return self.device.type == "cuda" and self.update_module is self.loss
+        if not isinstance(value, bool):
+            raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
+        if value and self.device.type != "cuda":
+            raise ValueError(f"cudagraph_update=true needs a CUDA device (device={self.device}); use auto or false")
+        return value
 
     def _compile_networks(self, mode: str | None) -> None:
         """``torch.compile`` the actor and critic networks in place (``nn.Module.compile``).
@@ -298,6 +325,8 @@ class Trainer:
         """
         batch = self.loss.compute_advantage(data)
         batch = batch.select(*self.loss.batch_keys).reshape(-1)
+        if self.graph_update:
+            return self._update_graphed(batch)
         sums: dict[str, torch.Tensor] = {}
         n = 0
         for _ in range(self.epochs):
@@ -312,6 +341,33 @@ class Trainer:
                 n += 1
         means = {k: v / n for k, v in sums.items()}
         means["skipped"] = sums["skipped"]  # a count, not a mean
+        return means
+
+    def _static_update_step(self) -> None:
+        """One update on the static minibatch; scalar metrics go to ``_metric_buf`` (order fixed on first call)."""
+        metrics = self._update_step(self._static_minibatch)
+        if self._metric_keys is None:  # first call is eager (graph warm-up)
+            self._metric_keys = [k for k, v in metrics.items() if isinstance(v, torch.Tensor) and v.numel() == 1]
+            self._metric_buf = torch.zeros(len(self._metric_keys), device=self.device)
+        self._metric_buf.copy_(torch.stack([metrics[k].detach().reshape(()).float() for k in self._metric_keys]))
+
+    def _update_graphed(self, batch: TensorDictBase) -> dict[str, torch.Tensor]:
+        if self._static_minibatch is None:
+            self._static_minibatch = batch[: self.minibatch_size].clone()
+        static = self._static_minibatch
+        keys = list(static.keys())
+        total: torch.Tensor | None = None
+        for _ in range(self.epochs):
+            perm = torch.randperm(self.frames_per_batch, device=batch.device)
+            for i in range(self.num_minibatches):
+                idx = perm[i * self.minibatch_size : (i + 1) * self.minibatch_size]
+                for key in keys:
+                    torch.index_select(batch.get(key), 0, idx, out=static.get(key))
+                self._update_stage()
+                total = self._metric_buf.clone() if total is None else total.add_(self._metric_buf)
+        n = self.epochs * self.num_minibatches
+        means = {k: total[j] / n for j, k in enumerate(self._metric_keys)}
+        means["skipped"] = total[self._metric_keys.index("skipped")]  # a count, not a mean
         return means
 
     def train_iteration(self) -> dict[str, float]:
@@ -478,6 +534,9 @@ class Trainer:
         if state.get("update_module") is not None and self.update_module is not self.loss:
             self.update_module.load_state_dict(state["update_module"])
         self.optimizer.load_state_dict(state["optimizer"])
+        for group in self.optimizer.param_groups:  # a property of this run, not of the checkpoint
+            group["capturable"] = self.graph_update
+        self._update_stage.reset()  # the loaded optimizer state lives in new tensors: capture again
         lr = self.optimizer.param_groups[0]["lr"]
         if isinstance(lr, torch.Tensor):
             self.lr.copy_(lr.to(self.lr.device))

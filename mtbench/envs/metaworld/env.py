@@ -9,7 +9,8 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
-from ...sim import WarpSim, step_all, warp_device
+from ...sim import WarpSim, launch_all, warp_device
+from ...utils import GraphedStage
 from . import robot
 from .models import compiled_task
 from .task import HAND_HIGH, HAND_LOW, MetaWorldTask, TaskState
@@ -48,6 +49,11 @@ class MetaWorldEnv(EnvBase):
         nconmax, njmax: contact / constraint buffer sizes per world.
         use_graph: capture physics as graphs (CUDA graphs on the GPU, Warp CPU graphs on the CPU).
         parallel_streams: on the GPU, run the task blocks' physics concurrently on one CUDA stream each.
+        torch_graphs: on the GPU, capture the env's torch work (action, observation, reward, success,
+            statistics, autoreset) in four CUDA graphs replayed between the physics launches, after
+            ``graph_warmup`` eager steps. Without them a step issues ~1000 small kernels from Python and is
+            host-bound.
+        graph_warmup: eager steps before the torch work is captured.
     """
 
     _torchrl_native_autoreset = True
@@ -68,6 +74,8 @@ class MetaWorldEnv(EnvBase):
         njmax: int | None = 320,
         use_graph: bool = True,
         parallel_streams: bool = True,
+        torch_graphs: bool = True,
+        graph_warmup: int = 2,
     ) -> None:
         tasks = list(tasks)
         counts = [int(c) for c in task_counts]
@@ -122,6 +130,24 @@ class MetaWorldEnv(EnvBase):
         self._vec_sampled = torch.zeros(num_envs, dtype=torch.bool, device=dev)
         self._stats = torch.zeros(5, self.num_tasks, device=dev)  # episodes, success, return, length, unhealthy
         self._parallel_streams = parallel_streams
+        # step buffers: the stages below communicate only through these (the stages may be CUDA graphs)
+        self._action_in = torch.zeros(num_envs, ACTION_DIM, device=dev)
+        self._action = torch.zeros(num_envs, ACTION_DIM, device=dev)
+        self._frame = torch.zeros(num_envs, 18, device=dev)
+        self._reward = torch.zeros(num_envs, device=dev)
+        self._done = torch.zeros(num_envs, dtype=torch.bool, device=dev)
+        self._obs = torch.zeros(num_envs, STATE_DIM + self.num_tasks, device=dev)
+        self._sims = [s.sim for _, s in self.blocks]
+        enabled = torch_graphs and dev.type == "cuda"
+        pool = torch.cuda.graph_pool_handle() if enabled else None
+        stream = torch.cuda.Stream(device=dev) if enabled else None
+        stage = dict(device=dev, warmup=graph_warmup, pool=pool, stream=stream, enabled=enabled)
+        self._stages = (
+            GraphedStage(self._stage_action, name="action", **stage),
+            GraphedStage(self._stage_evaluate, name="evaluate", **stage),
+            GraphedStage(self._stage_place_objects, name="place_objects", generators=(self._generator,), **stage),
+            GraphedStage(self._stage_finish, name="finish", **stage),
+        )
         self._make_specs()
 
     # ------------------------------------------------------------------ specs
@@ -142,9 +168,9 @@ class MetaWorldEnv(EnvBase):
     # ------------------------------------------------------------------ internals
     def _refresh_kinematic_quantities(self) -> None:
         for task, s in self.blocks:
-            s.left_pad = s.sim.site_xpos[:, task.left_pad_site]
-            s.right_pad = s.sim.site_xpos[:, task.right_pad_site]
-            s.tcp = 0.5 * (s.left_pad + s.right_pad)
+            s.left_pad.copy_(s.sim.site_xpos[:, task.left_pad_site])
+            s.right_pad.copy_(s.sim.site_xpos[:, task.right_pad_site])
+            s.tcp.copy_(0.5 * (s.left_pad + s.right_pad))
 
     def _frames(self) -> torch.Tensor:
         """``[N, 18]`` current frame ``[tcp, gripper_open, object_state]`` of every world."""
@@ -158,18 +184,24 @@ class MetaWorldEnv(EnvBase):
     def _observation(self, frame: torch.Tensor, prev_frame: torch.Tensor) -> torch.Tensor:
         return torch.cat([frame, prev_frame, self._goals(), self._one_hot], dim=-1)
 
-    def _reset_worlds(self, mask: torch.Tensor) -> None:
-        """Reset the worlds in ``mask`` (robot to its home pose, objects/goals resampled or kept)."""
+    # A reset of the worlds in ``mask``: stage the robot reset (torch) -> launch the keyframe reset (Warp) ->
+    # place objects and goals (torch) -> launch kinematics (Warp) -> record the reset state (torch).
+    def _stage_resets(self, mask: torch.Tensor) -> None:
+        for sim, sl in zip(self._sims, self.slices):
+            sim.stage_reset(mask[sl])
+
+    def _place_objects(self, mask: torch.Tensor) -> None:
+        """Objects and goals of the worlds in ``mask``: resampled ("-rand") or each world's first sample."""
         for b, ((task, s), sl) in enumerate(zip(self.blocks, self.slices)):
             m = mask[sl]
-            s.sim.reset(m)
             new = task.sample(s.n, self._generator, self.device)
             keep = torch.zeros_like(m) if self.rand else self._vec_sampled[sl]
             vec = torch.where(keep[:, None], self._reset_vec[b], new)
             self._reset_vec[b].copy_(torch.where(m[:, None], vec, self._reset_vec[b]))
             task.reset(s, vec, m)
-            s.sim.kinematics()
         self._vec_sampled |= mask
+
+    def _record_reset(self, mask: torch.Tensor) -> None:
         self._refresh_kinematic_quantities()
         for (task, s), sl in zip(self.blocks, self.slices):
             m = mask[sl][:, None]
@@ -177,6 +209,14 @@ class MetaWorldEnv(EnvBase):
             s.init_left_pad.copy_(torch.where(m, s.left_pad, s.init_left_pad))
             s.init_right_pad.copy_(torch.where(m, s.right_pad, s.init_right_pad))
             task.after_reset(s, mask[sl])
+
+    def _reset_worlds(self, mask: torch.Tensor) -> None:
+        """Reset the worlds in ``mask`` (robot to its home pose, objects/goals resampled or kept)."""
+        self._stage_resets(mask)
+        launch_all(self._sims, "reset", parallel_streams=self._parallel_streams)
+        self._place_objects(mask)
+        launch_all(self._sims, "kin", parallel_streams=self._parallel_streams)
+        self._record_reset(mask)
 
     def _apply_action(self, action: torch.Tensor) -> None:
         """Move each world's mocap target by the (already clamped) action and set the gripper force."""
@@ -197,6 +237,44 @@ class MetaWorldEnv(EnvBase):
             successes.append(success)
         return torch.cat(rewards), torch.cat(successes)
 
+    # ------------------------------------------------------------------ the step, as four torch stages
+    # Each stage reads and writes only persistent buffers, so that on the GPU it can be replayed from a CUDA
+    # graph (``GraphedStage``) between the Warp graph launches of the physics.
+    def _stage_action(self) -> None:
+        self._action.copy_(self._action_in.clamp(-1.0, 1.0))
+        self._apply_action(self._action)
+
+    def _stage_evaluate(self) -> None:
+        """After physics: observation, reward, success, statistics, which worlds are done; stage their reset."""
+        self._refresh_kinematic_quantities()
+        frame = self._frames()
+        reward, success = self._evaluate(self._action, frame)
+        unhealthy = torch.cat([sim.unhealthy() for sim in self._sims])
+        reward = torch.where(torch.isfinite(reward) & ~unhealthy, reward, torch.zeros_like(reward))
+        self._step_count += 1
+        self._ep_return += reward
+        self._ep_success |= success & ~unhealthy
+        done = (self._step_count >= self.max_episode_steps) | unhealthy
+        self._accumulate_stats(done, unhealthy)
+        self._frame.copy_(frame)
+        self._reward.copy_(reward)
+        self._done.copy_(done)
+        self._stage_resets(self._done)
+
+    def _stage_place_objects(self) -> None:
+        self._place_objects(self._done)
+
+    def _stage_finish(self) -> None:
+        """After the reset kinematics: record reset states, build the returned observation, start episodes."""
+        self._record_reset(self._done)
+        reset_frame = self._frames()
+        done = self._done[:, None]
+        frame = torch.where(done, reset_frame, self._frame)
+        # Meta-World: the previous frame of an episode's first observation is that frame itself
+        self._obs.copy_(self._observation(frame, torch.where(done, reset_frame, self._prev_frame)))
+        self._prev_frame.copy_(frame)
+        self._begin_episode(self._done)
+
     # ------------------------------------------------------------------ EnvBase API
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         out = self._core_step(tensordict.get("action"))
@@ -215,29 +293,20 @@ class MetaWorldEnv(EnvBase):
 
     def _core_step(self, action: torch.Tensor) -> dict[str, torch.Tensor]:
         """One control step of every world: action, physics of every block, observation, reward, statistics and
-        autoreset of finished worlds. All branch-free tensor work: no host synchronisation."""
-        action = action.clamp(-1.0, 1.0)
-        self._apply_action(action)
-        step_all([s.sim for _, s in self.blocks], parallel_streams=self._parallel_streams)
-        self._refresh_kinematic_quantities()
-        frame = self._frames()
-        reward, success = self._evaluate(action, frame)
-        unhealthy = torch.cat([s.sim.unhealthy() for _, s in self.blocks])
-        reward = torch.where(torch.isfinite(reward) & ~unhealthy, reward, torch.zeros_like(reward))
-        self._step_count += 1
-        self._ep_return += reward
-        self._ep_success |= success & ~unhealthy
-        done = (self._step_count >= self.max_episode_steps) | unhealthy
-        self._accumulate_stats(done, unhealthy)
-        # native autoreset: finished worlds start their next episode now; no host sync, all rows computed
-        self._reset_worlds(done)
-        reset_frame = self._frames()
-        frame = torch.where(done[:, None], reset_frame, frame)
-        # Meta-World: the previous frame of an episode's first observation is that frame itself
-        obs = self._observation(frame, torch.where(done[:, None], reset_frame, self._prev_frame))
-        self._prev_frame.copy_(frame)
-        self._begin_episode(done)
-        return {"observation": obs, "reward": reward[:, None], "done": done[:, None]}
+        autoreset of finished worlds (native autoreset). Branch-free tensor work, no host synchronisation; on
+        the GPU the torch stages replay CUDA graphs between the blocks' physics graphs."""
+        act, evaluate, place, finish = self._stages
+        self._action_in.copy_(action)
+        act()
+        launch_all(self._sims, "step", parallel_streams=self._parallel_streams)
+        evaluate()
+        launch_all(self._sims, "reset", parallel_streams=self._parallel_streams)
+        place()
+        launch_all(self._sims, "kin", parallel_streams=self._parallel_streams)
+        finish()
+        # the buffers are overwritten by the next step
+        return {"observation": self._obs.clone(), "reward": self._reward[:, None].clone(),
+                "done": self._done[:, None].clone()}
 
     def _accumulate_stats(self, done: torch.Tensor, unhealthy: torch.Tensor) -> None:
         counted = (done & self._ep_counted).float()
