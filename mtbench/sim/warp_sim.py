@@ -139,6 +139,8 @@ class WarpSim:
         self.site_xpos = wp.to_torch(d.site_xpos)
         self.time = wp.to_torch(d.time)
         self._overflow = wp.to_torch(d.overflow)
+        self._geom_xpos = wp.to_torch(d.geom_xpos)
+        self._field_views: dict[str, torch.Tensor] = {}
         self._static_geoms = self._static_geom_table()
         self._graphs: dict[str, object] = {}
         if use_graph:
@@ -147,7 +149,10 @@ class WarpSim:
     # ---------------------------------------------------------------- model fields
     def model_field(self, name: str) -> torch.Tensor:
         """Zero-copy torch view of a model field (shape ``(nworld, ...)`` if it was batched, else ``(1, ...)``)."""
-        return wp.to_torch(getattr(self.model, name))
+        view = self._field_views.get(name)
+        if view is None:
+            view = self._field_views[name] = wp.to_torch(getattr(self.model, name))
+        return view
 
     # ---------------------------------------------------------------- graphs
     def _step_impl(self) -> None:
@@ -210,7 +215,7 @@ class WarpSim:
         """Mark the worlds where ``mask`` (bool ``[nworld]``) is true for the next ``"reset"`` launch and clear
         their overflow flags. Torch work only (safe inside a torch CUDA graph capture)."""
         if self._has_key:
-            self._key_ids_t.copy_(torch.where(mask, 0, -1).to(self._key_ids_t.dtype))
+            self._key_ids_t.copy_(mask.to(self._key_ids_t.dtype) - 1)  # keyframe 0 where mask, -1 (untouched) elsewhere
         else:
             self._reset_mask_t.copy_(mask)
         self._overflow.masked_fill_(mask, 0)
@@ -287,8 +292,8 @@ class WarpSim:
     @property
     def geom_xpos(self) -> torch.Tensor:
         """Zero-copy view ``[nworld, ngeom, 3]`` of geom positions (MuJoCo Warp computes those of geoms fixed to
-        the world once; moving such a body per world must move them too: see ``mtbench.sim.static_geoms``)."""
-        return wp.to_torch(self.data.geom_xpos)
+        the world once; moving such a body per world must move them too: see :meth:`set_body_pos`)."""
+        return self._geom_xpos
 
     def unhealthy(self, max_abs_qvel: float = 1e4) -> torch.Tensor:
         """Bool ``[nworld]``: non-finite state, runaway velocities, or contact/constraint buffer overflow."""

@@ -281,7 +281,8 @@ def gripper_caging_reward(
         raise ValueError("Can only be either high_density or medium_density")
     if pad_axis not in (0, 1, 2):
         raise ValueError(f"pad_axis must be one of 0, 1, 2, got {pad_axis!r}.")
-    plane = [i for i in range(3) if i != pad_axis]
+    a, b = (i for i in range(3) if i != pad_axis)
+    plane = slice(a, b + 1, b - a)  # the two other axes as a slice: a list index would be a host-to-device copy
 
     # Caging along the pad axis: each pad must sit between obj_radius and pad_success_thresh from the object.
     obj_p = obj_pos[..., pad_axis]

@@ -171,9 +171,9 @@ class FreeObjectTask(MetaWorldTask):
 
 
 def _unit_quat(like: torch.Tensor) -> torch.Tensor:
-    q = torch.zeros(*like.shape[:-1], 4, device=like.device, dtype=like.dtype)
-    q[..., 0] = 1.0
-    return q
+    """Identity quaternions (wxyz) ``[..., 4]`` (built without writing a Python number into a tensor, which
+    would be a host-to-device copy inside a CUDA graph capture)."""
+    return torch.nn.functional.pad(like.new_ones(*like.shape[:-1], 1), (0, 3))
 
 
 def pad_object_state(first: torch.Tensor, second: torch.Tensor | None = None) -> torch.Tensor:
