@@ -51,7 +51,11 @@ def main() -> None:
     print(f"graph vs eager over {trials} steps x {n} worlds ({resets} resets): max |d obs| {worst_obs:.3e}, "
           f"max |d reward| {worst_rew:.3e}, done mismatches {done_mismatch}", flush=True)
     td = env.rollout(200, break_when_any_done=False)
-    finite = bool(torch.isfinite(td["next", "observation"]).all())
+    # TorchRL marks the ("next", "observation") of autoreset steps as unknown (NaN); every observation the
+    # policy sees is in "observation"
+    not_done = ~td["next", "done"].squeeze(-1)
+    finite = bool(torch.isfinite(td["observation"]).all()) and bool(
+        torch.isfinite(td["next", "observation"][not_done]).all())
     print("rollout reward mean", td["next", "reward"].mean().item(), "finite", finite,
           "stats", {k: v.tolist() for k, v in env.pop_episode_stats().items()})
     ok = worst_obs < 1e-3 and worst_rew < 1e-2 and done_mismatch == 0 and finite

@@ -144,3 +144,28 @@ def test_panda_fingers_are_damped_and_ridges_do_not_collide() -> None:
     assert len(boxes) == 10 and len(small) == 8
     assert all(m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0 for g in small)
     assert all(m.geom_contype[g] == robot.ROBOT_CONTYPE for g in set(boxes) - set(small))
+
+
+def test_table_top_collides_as_a_plane_at_the_table_surface() -> None:
+    """The table's collision box is replaced by a plane at its top (primitive contacts instead of GJK/EPA): a
+    puck dropped above the table comes to rest on the surface, as it did on the box (MuJoCo C)."""
+    _, model = compiled_task("pick_place")
+    table = model.body("tablelink").id
+    colliding = [g for g in range(model.ngeom)
+                 if model.geom_bodyid[g] == table and (model.geom_contype[g] or model.geom_conaffinity[g])]
+    assert [int(model.geom_type[g]) for g in colliding] == [int(mujoco.mjtGeom.mjGEOM_PLANE)]
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    plane = colliding[0]
+    surface_z = float(data.geom_xpos[plane][2])
+    assert surface_z == pytest.approx(0.0, abs=1e-9)  # Meta-World's table top
+    puck = model.geom("objGeom").id
+    half_height = float(model.geom_size[puck][1])
+    joint = model.body_jntadr[model.body("obj").id]
+    adr, dof = int(model.jnt_qposadr[joint]), int(model.jnt_dofadr[joint])
+    data.qpos[adr:adr + 7] = [0.1, 0.75, surface_z + half_height + 0.05, 1.0, 0.0, 0.0, 0.0]
+    for _ in range(int(1.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    assert float(data.geom_xpos[puck][2]) == pytest.approx(surface_z + half_height, abs=2e-3)
+    assert np.abs(data.qvel[dof:dof + 6]).max() < 1e-2  # at rest

@@ -159,6 +159,8 @@ def test_config_errors_name_valid_choices(tmp_path: Path) -> None:
         Trainer(_cfg(tmp_path, "loss.minibatch_size=50"), env=_env())
     with pytest.raises(ValueError, match="valid choices"):
         Trainer(_cfg(tmp_path, "loss.lr_schedule=cosine"), env=_env())
+    with pytest.raises(ValueError, match="needs a CUDA device"):
+        Trainer(_cfg(tmp_path, "cudagraph_update=true"), env=_env())
 
 
 def test_checkpoint_file_is_atomic_and_versioned(tmp_path: Path) -> None:
