@@ -1,0 +1,75 @@
+"""How the physics load grows while MT-PPO learns: per iteration, collection and update time, contacts per world,
+Newton iterations, and the time of one env step replaying the policy's last actions (synchronised).
+
+A random policy barely touches the objects; a learning one grasps, pushes and presses them, and the contact
+count (hence collision and solver work) rises. Use it to see which part of a training iteration is physics.
+
+    python benchmarks/physics_load.py --num-envs 24576 --iters 20
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+import warp as wp
+from hydra import compose, initialize_config_dir
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from mtbench.trainer.trainer import Trainer  # noqa: E402
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--env", default="mt10_rand")
+    p.add_argument("--num-envs", type=int, default=24576)
+    p.add_argument("--iters", type=int, default=20)
+    p.add_argument("--every", type=int, default=3, help="report every N iterations")
+    args = p.parse_args()
+    if not torch.cuda.is_available():
+        raise SystemExit("physics_load.py measures GPU timings; no CUDA device found")
+    with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
+        cfg = compose("config", overrides=[
+            f"env.name={args.env}", f"env.num_envs={args.num_envs}", "logging.logger=none", "logging.progress=none",
+            "checkpoint.every=0", "checkpoint.save_final=false", f"checkpoint.dir={tempfile.mkdtemp()}"])
+    trainer = Trainer(cfg)
+    env = trainer.base_env
+    print(f"device: {torch.cuda.get_device_name()}; date {time.strftime('%Y-%m-%d')}; {args.env} x {args.num_envs}")
+    for i in range(args.iters):
+        torch.cuda.synchronize()
+        t0 = time.perf_counter()
+        data, _ = trainer.collect()
+        torch.cuda.synchronize()
+        t1 = time.perf_counter()
+        trainer.update(data)
+        torch.cuda.synchronize()
+        t2 = time.perf_counter()
+        if i % args.every and i != args.iters - 1:
+            continue
+        niter, ncon = [], []
+        for _, s in env.blocks:
+            niter.append(float(wp.to_torch(s.sim.data.solver_niter).float().mean()))
+            ncon.append(int(wp.to_torch(s.sim.data.nacon)[0]) / s.n)
+        action = data["action"][:, -1].clone()
+        torch.cuda.synchronize()
+        t3 = time.perf_counter()
+        for _ in range(10):
+            env._core_step(action)
+        torch.cuda.synchronize()
+        step_ms = 100 * (time.perf_counter() - t3)
+        print(f"iter {i + 1}: collect {t1 - t0:.3f}s update {t2 - t1:.3f}s | contacts/world "
+              f"{sum(ncon) / len(ncon):.2f} | Newton iterations {sum(niter) / len(niter):.2f} | env step {step_ms:.1f} ms",
+              flush=True)
+    trainer.close()
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("PYTHONUNBUFFERED", "1")
+    main()
