@@ -143,6 +143,7 @@ class WarpSim:
         self._field_views: dict[str, torch.Tensor] = {}
         self._static_geoms = self._static_geom_table()
         self._graphs: dict[str, object] = {}
+        self._phases = {"step": self._step_impl, "reset": self._reset_impl, "kin": self._kinematics_impl}
         if use_graph:
             self._capture()
 
@@ -176,7 +177,7 @@ class WarpSim:
             gc_was_enabled = gc.isenabled()
             gc.disable()
             try:
-                for name, fn in (("step", self._step_impl), ("reset", self._reset_impl), ("kin", self._kinematics_impl)):
+                for name, fn in self._phases.items():
                     with wp.ScopedCapture(device=self.wp_device, stream=self._wp_stream) as cap:
                         fn()
                     self._graphs[name] = cap.graph
@@ -184,27 +185,21 @@ class WarpSim:
                 if gc_was_enabled:
                     gc.enable()
 
-    def _run(self, name: str, fn) -> None:
-        if self.use_graph:
-            wp.capture_launch(self._graphs[name], stream=self._wp_stream)
-        else:
-            with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._wp_stream) if self._wp_stream else _null():
-                fn()
-
     # ---------------------------------------------------------------- public API
     def launch(self, phase: str, stream: torch.cuda.Stream | None = None) -> None:
-        """Enqueue one captured phase: ``"step"`` (``substeps`` physics steps then kinematics), ``"reset"``
-        (the worlds staged by :meth:`stage_reset`) or ``"kin"`` (kinematics). Asynchronous on the GPU; on
-        ``stream`` if given, else on the block's own stream (no ordering with torch: see :func:`launch_all`)."""
-        fns = {"step": self._step_impl, "reset": self._reset_impl, "kin": self._kinematics_impl}
-        if phase not in fns:
-            raise ValueError(f"unknown phase {phase!r}; valid choices: {list(fns)}")
-        if stream is not None:
-            if not self.use_graph:
-                raise ValueError("launching on an explicit stream needs use_graph=True")
-            wp.capture_launch(self._graphs[phase], stream=wp.stream_from_torch(stream))
+        """Enqueue one phase: ``"step"`` (``substeps`` physics steps then kinematics), ``"reset"`` (the worlds
+        staged by :meth:`stage_reset`) or ``"kin"`` (kinematics); its captured graph, or its kernels when
+        ``use_graph=False``. Asynchronous on the GPU; on ``stream`` if given, else on the block's own stream (no
+        ordering with torch: see :func:`launch_all`)."""
+        fn = self._phases.get(phase)
+        if fn is None:
+            raise ValueError(f"unknown phase {phase!r}; valid choices: {list(self._phases)}")
+        wp_stream = self._wp_stream if stream is None else wp.stream_from_torch(stream)
+        if self.use_graph:
+            wp.capture_launch(self._graphs[phase], stream=wp_stream)
         else:
-            self._run(phase, fns[phase])
+            with wp.ScopedDevice(self.wp_device), wp.ScopedStream(wp_stream) if wp_stream else _null():
+                fn()
 
     def step(self) -> None:
         """``substeps`` physics steps then kinematics, ordered after the current torch stream's work."""
@@ -354,13 +349,9 @@ def launch_all(sims: Sequence[WarpSim], phase: str = "step", *, parallel_streams
             sim.launch(phase)
         return
     main = torch.cuda.current_stream(sims[0].device)
-    if not parallel_streams or not sims[0].use_graph:
+    if not parallel_streams:
         for sim in sims:
-            if sim.use_graph:
-                sim.launch(phase, stream=main)
-            else:
-                with _StreamJoin(sim.stream):
-                    sim.launch(phase)
+            sim.launch(phase, stream=main)
         return
     for sim in sims:
         sim.stream.wait_stream(main)

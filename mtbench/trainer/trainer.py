@@ -215,7 +215,8 @@ class Trainer:
         )
         self._iterator = iter(self.collector)
         # the minibatch update replayed from a CUDA graph (cudagraph_update): a static minibatch is filled by
-        # index_select, the graph runs loss -> backward -> clip -> Adam and writes the metrics into one vector
+        # index_select, the graph runs loss -> backward -> clip -> Adam and writes the metrics into one vector.
+        # Either way an update's scalar metrics are summed on the device as one vector (keys: _metric_keys).
         self._static_minibatch: TensorDictBase | None = None
         self._metric_keys: list[str] | None = None
         self._metric_buf: torch.Tensor | None = None
@@ -325,50 +326,38 @@ class Trainer:
         """
         batch = self.loss.compute_advantage(data)
         batch = batch.select(*self.loss.batch_keys).reshape(-1)
-        if self.graph_update:
-            return self._update_graphed(batch)
-        sums: dict[str, torch.Tensor] = {}
-        n = 0
-        for _ in range(self.epochs):
-            perm = torch.randperm(self.frames_per_batch, device=batch.device)
-            for i in range(self.num_minibatches):
-                idx = perm[i * self.minibatch_size : (i + 1) * self.minibatch_size]
-                metrics = self._update_step(batch[idx])
-                for key, value in metrics.items():
-                    if isinstance(value, torch.Tensor) and value.numel() == 1:
-                        v = value.detach().reshape(()).float()
-                        sums[key] = sums[key] + v if key in sums else v
-                n += 1
-        means = {k: v / n for k, v in sums.items()}
-        means["skipped"] = sums["skipped"]  # a count, not a mean
-        return means
-
-    def _static_update_step(self) -> None:
-        """One update on the static minibatch; scalar metrics go to ``_metric_buf`` (order fixed on first call)."""
-        metrics = self._update_step(self._static_minibatch)
-        if self._metric_keys is None:  # first call is eager (graph warm-up)
-            self._metric_keys = [k for k, v in metrics.items() if isinstance(v, torch.Tensor) and v.numel() == 1]
-            self._metric_buf = torch.zeros(len(self._metric_keys), device=self.device)
-        self._metric_buf.copy_(torch.stack([metrics[k].detach().reshape(()).float() for k in self._metric_keys]))
-
-    def _update_graphed(self, batch: TensorDictBase) -> dict[str, torch.Tensor]:
-        if self._static_minibatch is None:
+        if self.graph_update and self._static_minibatch is None:
             self._static_minibatch = batch[: self.minibatch_size].clone()
-        static = self._static_minibatch
-        keys = list(static.keys())
         total: torch.Tensor | None = None
         for _ in range(self.epochs):
             perm = torch.randperm(self.frames_per_batch, device=batch.device)
             for i in range(self.num_minibatches):
                 idx = perm[i * self.minibatch_size : (i + 1) * self.minibatch_size]
-                for key in keys:
-                    torch.index_select(batch.get(key), 0, idx, out=static.get(key))
-                self._update_stage()
-                total = self._metric_buf.clone() if total is None else total.add_(self._metric_buf)
+                if self.graph_update:
+                    for key, value in self._static_minibatch.items():
+                        torch.index_select(batch.get(key), 0, idx, out=value)
+                    self._update_stage()
+                    metrics = self._metric_buf
+                else:
+                    metrics = self._metric_vector(self._update_step(batch[idx]))
+                total = metrics.clone() if total is None else total.add_(metrics)
         n = self.epochs * self.num_minibatches
         means = {k: total[j] / n for j, k in enumerate(self._metric_keys)}
         means["skipped"] = total[self._metric_keys.index("skipped")]  # a count, not a mean
         return means
+
+    def _metric_vector(self, metrics: TensorDictBase) -> torch.Tensor:
+        """The scalar metrics of one update as one vector (key order fixed by the first call)."""
+        if self._metric_keys is None:
+            self._metric_keys = [k for k, v in metrics.items() if isinstance(v, torch.Tensor) and v.numel() == 1]
+        return torch.stack([metrics[k].detach().reshape(()).float() for k in self._metric_keys])
+
+    def _static_update_step(self) -> None:
+        """One update on the static minibatch, its metric vector written to ``_metric_buf`` (the graphed step)."""
+        metrics = self._metric_vector(self._update_step(self._static_minibatch))
+        if self._metric_buf is None:  # the first calls are eager (graph warm-up)
+            self._metric_buf = torch.zeros_like(metrics)
+        self._metric_buf.copy_(metrics)
 
     def train_iteration(self) -> dict[str, float]:
         """Collect one batch, update, and return this iteration's scalar metrics."""
