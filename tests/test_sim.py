@@ -132,10 +132,10 @@ def test_set_body_pos_moves_world_fixed_geoms_with_the_body() -> None:
         WarpSim(m, nworld=1, device="cpu").set_body_pos(body, pos[:1], torch.tensor([True]))
 
 
-def test_panda_fingers_are_damped_and_ridges_do_not_collide() -> None:
+def test_panda_fingers_are_damped_and_mesh_ridges_do_not_collide() -> None:
     from mtbench.envs.metaworld import robot
 
-    m = robot.panda_spec().compile()
+    m = robot.panda_spec("mesh").compile()
     for name in ("finger_joint1", "finger_joint2"):
         assert m.dof_damping[m.joint(name).dofadr[0]] == robot.FINGER_DAMPING
     finger_bodies = {m.body("left_finger").id, m.body("right_finger").id}
@@ -144,6 +144,67 @@ def test_panda_fingers_are_damped_and_ridges_do_not_collide() -> None:
     assert len(boxes) == 10 and len(small) == 8
     assert all(m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0 for g in small)
     assert all(m.geom_contype[g] == robot.ROBOT_CONTYPE for g in set(boxes) - set(small))
+
+
+def _rot(quat: np.ndarray) -> np.ndarray:
+    mat = np.zeros(9)
+    mujoco.mju_quat2Mat(mat, quat)
+    return mat.reshape(3, 3)
+
+
+def _colliding(m: mujoco.MjModel, body: str) -> list[int]:
+    return [g for g in range(m.ngeom) if m.geom_bodyid[g] == m.body(body).id and m.geom_contype[g]]
+
+
+def _outside_boxes(m: mujoco.MjModel, geoms: list[int], pts: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Distance of each point (body frame of the geoms, shifted by ``offset``) to the union of the boxes."""
+    dist = np.full(len(pts), np.inf)
+    for g in geoms:
+        local = (pts + offset - m.geom_pos[g]) @ _rot(m.geom_quat[g])
+        dist = np.minimum(dist, np.linalg.norm(np.maximum(np.abs(local) - m.geom_size[g], 0.0), axis=1))
+    return dist
+
+
+def test_primitive_hand_and_finger_boxes_cover_menagerie_collision_meshes() -> None:
+    """The default hand/finger collision boxes enclose the convex hulls of Menagerie's collision meshes (the
+    geometry MuJoCo collides) without inflating them, and keep the fingertip pad's grasping face."""
+    from scipy.spatial import ConvexHull
+
+    from mtbench.envs.metaworld import robot
+
+    mesh, prim = robot.panda_spec("mesh").compile(), robot.panda_spec().compile()
+    for body in ("hand", "left_finger", "right_finger"):
+        assert {int(prim.geom_type[g]) for g in _colliding(prim, body)} == {int(mujoco.mjtGeom.mjGEOM_BOX)}
+
+    def hull(body: str) -> ConvexHull:
+        (g,) = [g for g in _colliding(mesh, body) if mesh.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH]
+        adr, num = mesh.mesh_vertadr[mesh.geom_dataid[g]], mesh.mesh_vertnum[mesh.geom_dataid[g]]
+        return ConvexHull(mesh.mesh_vert[adr:adr + num] @ _rot(mesh.geom_quat[g]).T + mesh.geom_pos[g])
+
+    def box_volume(body: str) -> float:
+        return sum(8.0 * float(np.prod(prim.geom_size[g])) for g in _colliding(prim, body))
+
+    finger, hand = hull("left_finger"), hull("hand")
+    finger_pts, hand_pts = finger.points[finger.vertices], hand.points[hand.vertices]
+    # finger hull: inside the finger boxes, or (the 4 mm lip at its root) inside the hand box, at any opening
+    for opening in (0.0, 0.04):
+        offset = prim.body("left_finger").pos + np.array([0.0, opening, 0.0])
+        dist = np.minimum(_outside_boxes(prim, _colliding(prim, "left_finger"), finger_pts, np.zeros(3)),
+                          _outside_boxes(prim, _colliding(prim, "hand"), finger_pts, offset))
+        assert dist.max() < 5e-4, dist.max()
+    # hand hull: the housing (above the narrow cable ridge of the flange, z < -1 cm) within 7 mm of the box
+    housing = hand_pts[hand_pts[:, 2] > -0.01]
+    assert _outside_boxes(prim, _colliding(prim, "hand"), housing, np.zeros(3)).max() < 7e-3
+    # no inflation: box volumes within 10% of the hull volumes
+    assert box_volume("left_finger") == pytest.approx(finger.volume, rel=0.1)
+    assert box_volume("hand") == pytest.approx(hand.volume, rel=0.1)
+    # the grasping face of the fingertip is where Menagerie's pad box has it
+    pad = [g for g in _colliding(mesh, "left_finger") if mesh.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
+    (tip,) = [g for g in _colliding(prim, "left_finger") if prim.geom(g).name.endswith("tip_box")]
+    assert prim.geom_pos[tip][1] - prim.geom_size[tip][1] == pytest.approx(
+        mesh.geom_pos[pad[0]][1] - mesh.geom_size[pad[0]][1], abs=1e-6)
+    with pytest.raises(ValueError, match="primitive, mesh"):
+        robot.panda_spec("capsules")
 
 
 def test_table_top_collides_as_a_plane_at_the_table_surface() -> None:
@@ -169,3 +230,37 @@ def test_table_top_collides_as_a_plane_at_the_table_surface() -> None:
         mujoco.mj_step(model, data)
     assert float(data.geom_xpos[puck][2]) == pytest.approx(surface_z + half_height, abs=2e-3)
     assert np.abs(data.qvel[dof:dof + 6]).max() < 1e-2  # at rest
+
+
+_BOX_ON_BOX_XML = """
+<mujoco><option timestep="0.002"/><worldbody>
+  <geom name="base" type="box" size="0.05 0.05 0.05" pos="0 0 0.05"/>
+  <body name="top" pos="0 0 0.1495" euler="0 0 45"><freejoint/><geom name="top" type="box" size="0.05 0.05 0.05"/></body>
+</worldbody></mujoco>
+"""
+
+
+def test_primitive_box_box_collider_matches_mujoco_c() -> None:
+    """A box turned 45 degrees on another: their faces overlap in an octagon. MuJoCo C's box-box routine, and
+    WarpSim's default ``box_box_collider="primitive"``, put a contact at each of its 8 corners (MuJoCo Warp's
+    GJK/EPA default would give at most 4)."""
+    m = mujoco.MjModel.from_xml_string(_BOX_ON_BOX_XML)
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    assert d.ncon == 8
+    sim = WarpSim(m, nworld=1, device="cpu", use_graph=False)
+    sim.kinematics()
+    import mujoco_warp as mjw
+    import warp as wp
+
+    mjw.collision(sim.model, sim.data)
+    n = int(wp.to_torch(sim.data.nacon)[0])
+    assert n == d.ncon
+    warp_pos = wp.to_torch(sim.data.contact.pos)[:n].double().numpy()
+    c_pos = np.array([d.contact[i].pos for i in range(d.ncon)])
+    # same contact points (order may differ)
+    dist = np.linalg.norm(warp_pos[:, None] - c_pos[None], axis=-1)
+    assert dist.min(axis=1).max() < 1e-5
+    assert np.allclose(sorted(wp.to_torch(sim.data.contact.dist)[:n].tolist()), sorted(d.contact.dist), atol=1e-6)
+    with pytest.raises(ValueError, match="primitive, gjk"):
+        WarpSim(m, nworld=1, device="cpu", box_box_collider="libccd")

@@ -34,6 +34,9 @@ FATAL_OVERFLOW = int(
     & ~mjw.OverflowType.TACTILE
 )
 
+# Box-box narrowphase choices (see ``WarpSim``).
+BOX_BOX_COLLIDERS = ("primitive", "gjk")
+
 
 def _init_warp() -> None:
     global _WARP_INITIALIZED
@@ -74,6 +77,8 @@ class WarpSim:
         reset_key: keyframe index used by :meth:`reset` (ignored when the model has no keyframe).
         warn_overflow: let MuJoCo Warp print a message whenever a contact/constraint buffer overflows (off: the
             overflow is reported per world by :meth:`unhealthy` instead).
+        box_box_collider: ``"primitive"``: MuJoCo C's box-box routine (up to 8 contacts, as in MuJoCo C);
+            ``"gjk"``: MuJoCo Warp's default general convex collider (GJK/EPA, up to 4 contacts).
     """
 
     def __init__(
@@ -89,7 +94,11 @@ class WarpSim:
         use_graph: bool = True,
         reset_key: int = 0,
         warn_overflow: bool = False,
+        box_box_collider: str = "primitive",
     ) -> None:
+        if box_box_collider not in BOX_BOX_COLLIDERS:
+            raise ValueError(f"unknown box_box_collider {box_box_collider!r}; valid choices: "
+                             f"{', '.join(BOX_BOX_COLLIDERS)}")
         if nworld < 1:
             raise ValueError(f"nworld must be positive, got {nworld}")
         if substeps < 1:
@@ -116,6 +125,8 @@ class WarpSim:
             # no per-occurrence prints from inside the step: affected worlds are reported by unhealthy() (the
             # env resets and counts them); warn_overflow=True prints MuJoCo Warp's messages for fatal overflows
             self.model.opt.warn_overflow = FATAL_OVERFLOW if warn_overflow else 0
+            if box_box_collider == "primitive":  # MuJoCo Warp reads this flag when it builds the collision table
+                self.model.opt.disableflags |= int(mjw.DisableBit.NATIVECCD)
             self.data = mjw.put_data(mjm, data0, nworld=nworld, nconmax=nconmax, njmax=njmax)
             self._key_ids = wp.full(nworld, -1, dtype=int)
         self.stream: torch.cuda.Stream | None = None

@@ -54,6 +54,10 @@ class MetaWorldEnv(EnvBase):
             ``graph_warmup`` eager steps. Without them a step issues ~1000 small kernels from Python and is
             host-bound.
         graph_warmup: eager steps before the torch work is captured.
+        robot_collision: hand and finger collision geometry, ``"primitive"`` (boxes fitted to the Panda's
+            collision meshes; much cheaper contacts on the GPU) or ``"mesh"`` (Menagerie's convex meshes).
+        box_box_collider: ``"primitive"`` (MuJoCo C's box-box routine) or ``"gjk"`` (MuJoCo Warp's default
+            GJK/EPA); see :class:`~mtbench.sim.WarpSim`.
     """
 
     _torchrl_native_autoreset = True
@@ -76,6 +80,8 @@ class MetaWorldEnv(EnvBase):
         parallel_streams: bool = True,
         torch_graphs: bool = True,
         graph_warmup: int = 2,
+        robot_collision: str = "primitive",
+        box_box_collider: str = "primitive",
     ) -> None:
         tasks = list(tasks)
         counts = [int(c) for c in task_counts]
@@ -85,6 +91,9 @@ class MetaWorldEnv(EnvBase):
             raise ValueError(f"task_counts must all be positive, got {counts}")
         if len(set(tasks)) != len(tasks):
             raise ValueError(f"task names must be unique, got {tasks}")
+        if robot_collision not in robot.ROBOT_COLLISIONS:
+            raise ValueError(f"unknown robot_collision {robot_collision!r}; valid choices: "
+                             f"{', '.join(robot.ROBOT_COLLISIONS)}")
         if episode_length < 1:
             raise ValueError(f"episode_length must be positive, got {episode_length}")
         num_envs = sum(counts)
@@ -107,9 +116,10 @@ class MetaWorldEnv(EnvBase):
         self.slices: list[slice] = []
         start = 0
         for name, count in zip(tasks, counts):
-            task_cls, mjm = compiled_task(name)
+            task_cls, mjm = compiled_task(name, robot_collision)
             sim = WarpSim(mjm, count, dev, substeps=substeps, nconmax=nconmax, njmax=njmax,
-                          batched_fields=("body_pos",), use_graph=use_graph)
+                          batched_fields=("body_pos",), use_graph=use_graph,
+                          box_box_collider=box_box_collider)
             task = task_cls(mjm, dev)
             self.blocks.append((task, TaskState(sim=sim, n=count, device=dev)))
             self.slices.append(slice(start, start + count))

@@ -12,7 +12,7 @@ from .task import MetaWorldTask
 
 
 @lru_cache(maxsize=None)
-def compiled_task(name: str) -> tuple[type[MetaWorldTask], mujoco.MjModel]:
-    """``(task class, compiled MjModel)`` for the task ``name``."""
+def compiled_task(name: str, robot_collision: str = "primitive") -> tuple[type[MetaWorldTask], mujoco.MjModel]:
+    """``(task class, compiled MjModel)`` for the task ``name`` with the given hand/finger collision geometry."""
     cls = task_class(name)
-    return cls, build_scene(cls.scene, edit_spec=cls.edit_spec)
+    return cls, build_scene(cls.scene, edit_spec=cls.edit_spec, robot_collision=robot_collision)

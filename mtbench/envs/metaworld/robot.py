@@ -36,12 +36,37 @@ FINGER_JOINTS = (PREFIX + "finger_joint1", PREFIX + "finger_joint2")
 READY_QPOS = np.array([0.0, 0.3, 0.0, -2.2, 0.0, 2.5, 0.785, 0.04, 0.04])
 # Collision filtering: robot geoms collide with the world/objects (conaffinity 1) but not with each other.
 ROBOT_CONTYPE, ROBOT_CONAFFINITY = 1, 0
+# Collision geometry of the hand and fingers: "primitive" (boxes, default) or "mesh" (Menagerie's convex meshes).
+ROBOT_COLLISIONS = ("primitive", "mesh")
+# Boxes fitted to the convex hulls of Menagerie's ``hand_c`` and ``finger_0`` meshes, in the body frames (hand: z
+# towards the fingers, y the opening axis; finger: y away from the other finger, z towards the tip). Boxes are
+# cheap for MuJoCo Warp's convex collision (constant-time support function; box-box and box-plane are primitive
+# colliders), where the meshes' hulls (102 and 49 vertices) made GJK/EPA the bulk of a contact-rich step.
+# name -> (pos, half sizes, rotation about the body x axis in radians)
+HAND_BOXES = {"hand_box": ((0.0, 0.0, 0.029), (0.025, 0.102, 0.037), 0.0)}
+FINGER_BOXES = {
+    # pad and tip in one box: the pad's grasping face (y = 1.5 mm) is Menagerie's fingertip pad
+    "tip_box": ((0.0, 0.008, 0.045), (0.0088, 0.0065, 0.009), 0.0),
+    # the slanted middle section, from the base (y 11.6..25.3 mm at z 19 mm) to the tip (y 9.5..14.4 mm at z 50 mm)
+    "taper_box": ((0.0, 0.01525, 0.0343), (0.0095, 0.005, 0.0165), 0.204),
+    "base_box": ((0.0, 0.01865, 0.00965), (0.0105, 0.00765, 0.00965), 0.0),
+}
 
 
-def panda_spec() -> mujoco.MjSpec:
+def panda_spec(collision: str = "primitive") -> mujoco.MjSpec:
     """Menagerie Panda prepared for mocap control: no arm actuators, gravity compensation, pad sites,
-    a tendon force actuator for the gripper and no robot self-collisions."""
+    a tendon force actuator for the gripper and no robot self-collisions.
+
+    Args:
+        collision: hand and finger collision geometry, one of ``ROBOT_COLLISIONS``: ``"primitive"`` (boxes fitted
+            to Menagerie's collision meshes; see ``HAND_BOXES``/``FINGER_BOXES``) or ``"mesh"`` (Menagerie's
+            convex meshes and fingertip pad boxes). The arm links keep their meshes either way.
+    """
+    if collision not in ROBOT_COLLISIONS:
+        raise ValueError(f"unknown robot collision {collision!r}; valid choices: {', '.join(ROBOT_COLLISIONS)}")
     spec = mujoco.MjSpec.from_file(str(menagerie_dir("franka_emika_panda") / "panda.xml"))
+    if collision == "primitive":
+        _use_primitive_hand_collision(spec)
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER  # implicitfast is not supported by MuJoCo Warp
     for act in list(spec.actuators):
         spec.delete(act)
@@ -73,7 +98,7 @@ def panda_spec() -> mujoco.MjSpec:
             j.armature = 0.1
         elif j.name in ("finger_joint1", "finger_joint2"):
             j.damping = [FINGER_DAMPING, 0.0, 0.0]
-    # The four small ridge boxes on each fingertip (half sizes < 5 mm) make contact normals along the pad plane
+    # Mesh collision: the four small ridge boxes on each fingertip (half sizes < 5 mm) make contact normals along the pad plane
     # that wedge objects sideways; the main pad box and the finger mesh carry the grasp.
     for geom in spec.geoms:
         if (geom.type == mujoco.mjtGeom.mjGEOM_BOX and "finger" in (geom.parent.name or "")
@@ -91,3 +116,16 @@ def panda_spec() -> mujoco.MjSpec:
         ctrllimited=True,
     )
     return spec
+
+
+def _use_primitive_hand_collision(spec: mujoco.MjSpec) -> None:
+    """Replace the colliding geoms of the hand and both fingers by ``HAND_BOXES`` and ``FINGER_BOXES``."""
+    for body_name, boxes in (("hand", HAND_BOXES), ("left_finger", FINGER_BOXES), ("right_finger", FINGER_BOXES)):
+        body = spec.body(body_name)
+        for geom in list(body.geoms):
+            if geom.contype or geom.conaffinity:
+                spec.delete(geom)
+        for name, (pos, size, angle) in boxes.items():
+            body.add_geom(name=f"{body_name}_{name}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=list(pos), size=list(size),
+                          quat=[np.cos(angle / 2), np.sin(angle / 2), 0.0, 0.0], group=3, rgba=[0.5, 0.5, 0.5, 0.3],
+                          contype=ROBOT_CONTYPE, conaffinity=ROBOT_CONAFFINITY)

@@ -81,9 +81,14 @@ def _table_top_as_plane(spec: mujoco.MjSpec) -> None:
     box.contype, box.conaffinity = 0, 0
 
 
-def build_scene(scene: SceneSpec, edit_spec: Callable[[mujoco.MjSpec], None] | None = None) -> mujoco.MjModel:
+def build_scene(
+    scene: SceneSpec,
+    edit_spec: Callable[[mujoco.MjSpec], None] | None = None,
+    robot_collision: str = "primitive",
+) -> mujoco.MjModel:
     """Compile the task scene with the Panda at ``ROBOT_BASE_POS`` and the arm settled so that the TCP is at
-    ``scene.hand_init_pos`` (stored as the ``home`` keyframe, with the mocap body at the matching hand pose)."""
+    ``scene.hand_init_pos`` (stored as the ``home`` keyframe, with the mocap body at the matching hand pose).
+    ``robot_collision`` selects the hand/finger collision geometry (``robot.ROBOT_COLLISIONS``)."""
     spec = mujoco.MjSpec.from_file(str(metaworld_assets_dir() / "sawyer_xyz" / scene.xml))
     _strip_sawyer(spec)
     _table_top_as_plane(spec)
@@ -95,7 +100,7 @@ def build_scene(scene: SceneSpec, edit_spec: Callable[[mujoco.MjSpec], None] | N
     spec.option.ls_iterations = LS_ITERATIONS
     spec.option.tolerance = 1e-6
     frame = spec.worldbody.add_frame(pos=ROBOT_BASE_POS, quat=ROBOT_BASE_QUAT)
-    frame.attach_body(robot.panda_spec().body("link0"), robot.PREFIX, "")
+    frame.attach_body(robot.panda_spec(robot_collision).body("link0"), robot.PREFIX, "")
     hand_pos = np.asarray(scene.hand_init_pos) + np.array([0.0, 0.0, robot.TCP_OFFSET])
     spec.worldbody.add_body(name="mocap", mocap=True, pos=hand_pos, quat=robot.HAND_DOWN_QUAT)
     spec.add_equality(
