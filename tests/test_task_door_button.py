@@ -228,14 +228,41 @@ def test_button_reward_matches_metaworld(ref) -> None:
 
 
 # ------------------------------------------------------------------------------------------------ fixtures
-def test_button_edit_spec_stiffens_the_joint_limit() -> None:
-    spec = mujoco.MjSpec()
-    body = spec.worldbody.add_body(name="button")
-    body.add_joint(name="btnbox_joint", type=mujoco.mjtJoint.mjJNT_SLIDE, range=[-0.06, 0.0], limited=1)
-    body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.01, 0, 0], mass=0.01)
-    ButtonPressTopdown.edit_spec(spec)
-    model = spec.compile()
-    j = model.joint("btnbox_joint")
-    assert model.dof_armature[j.dofadr[0]] == pytest.approx(ButtonPressTopdown.BUTTON_ARMATURE)
-    np.testing.assert_allclose(j.solref, ButtonPressTopdown.BUTTON_SOLREF_LIMIT)
-    np.testing.assert_allclose(j.solimp, ButtonPressTopdown.BUTTON_SOLIMP_LIMIT)
+@pytest.mark.parametrize("task, part, joint, frame", [
+    ("button_press_topdown", "button", "btnbox_joint", ("buttonbox", "RetainingWall")),
+    ("door_open", "door_link", "doorjoint", ("doorlockB", "RetainingWall")),
+    ("drawer_close", "drawer_link", "goal_slidey", ("drawercase_link", "RetainingWall")),
+    ("window_open", "windowb_a", "window_slide", ("window_frame", "windowb_b", "RetainingWall")),
+])
+def test_fixture_parts_are_guided_by_their_joint_alone(task: str, part: str, joint: str, frame: tuple) -> None:
+    """``guide_by_joint`` (MuJoCo C): a part shoved against either end of its travel makes no contact with its
+    frame and stops within 1 mm of its joint range (the stiff limit)."""
+    from mtbench.envs.metaworld.models import compiled_task
+    from mtbench.envs.metaworld.scene import STIFF_LIMIT_SOLREF
+
+    _, m = compiled_task(task)
+    j = m.joint(joint)
+    np.testing.assert_allclose(j.solref, STIFF_LIMIT_SOLREF)
+    part_id, frame_ids = m.body(part).id, {m.body(b).id for b in frame}
+    excluded = {tuple(sorted(int(x) for x in divmod(sig, 1 << 16))) for sig in m.exclude_signature}
+    assert {tuple(sorted((part_id, b))) for b in frame_ids} <= excluded
+    lo, hi = m.jnt_range[j.id]
+    for push in (-20.0, 20.0):
+        d = mujoco.MjData(m)
+        mujoco.mj_resetDataKeyframe(m, d, 0)
+        for _ in range(int(1.0 / m.opt.timestep)):
+            d.qfrc_applied[j.dofadr[0]] = push
+            mujoco.mj_step(m, d)
+            for c in d.contact[: d.ncon]:
+                pair = {int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])}
+                assert not (part_id in pair and pair & frame_ids), f"{part} touches its frame"
+        q = float(d.qpos[j.qposadr[0]])
+        end = lo if push < 0 else hi
+        if task == "door_open" and push < 0:  # the door swings open until it meets the arm, short of -2 rad
+            assert q < -0.2
+            continue
+        assert abs(q - end) < 1e-3, (task, push, q)
+    with pytest.raises(ValueError, match="no body 'nope'"):
+        from mtbench.envs.metaworld.scene import guide_by_joint
+
+        guide_by_joint(mujoco.MjSpec(), "nope", joint, frame)

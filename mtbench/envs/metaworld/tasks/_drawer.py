@@ -20,10 +20,11 @@ physics.
 
 from __future__ import annotations
 
+import mujoco
 import torch
 
 from ..reward_utils import hamacher_product, tolerance
-from ..scene import SceneSpec
+from ..scene import SceneSpec, guide_by_joint
 from ..task import TaskState
 
 SCENE = SceneSpec("sawyer_drawer.xml", hand_init_pos=(0.0, 0.6, 0.2))
@@ -49,6 +50,11 @@ def scaled_norm(x: torch.Tensor, scale: tuple[float, float, float]) -> torch.Ten
 
 class DrawerSceneMixin:
     """Model ids and reset writes of the drawer scene; mix into a ``MetaWorldTask`` subclass (listed first)."""
+
+    @classmethod
+    def edit_spec(cls, spec: mujoco.MjSpec) -> None:
+        """The drawer slides on its joint alone (no contacts with its case or the wall behind; stiff limit)."""
+        guide_by_joint(spec, DRAWER_BODY, SLIDE_JOINT, ("drawercase_link", "RetainingWall"))
 
     def bind(self, model) -> None:
         self.slide_qpos = self.joint_qposadr(SLIDE_JOINT)

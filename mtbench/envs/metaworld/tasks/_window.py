@@ -15,10 +15,11 @@ from __future__ import annotations
 
 from typing import Literal
 
+import mujoco
 import torch
 
 from ..reward_utils import hamacher_product, tolerance
-from ..scene import SceneSpec
+from ..scene import SceneSpec, guide_by_joint
 from ..task import TaskState, pad_object_state
 
 # Meta-World's init_config hand_init_pos of both window tasks
@@ -38,6 +39,14 @@ class WindowSceneMixin:
     subclass (listed first) that sets ``handle_site_name``."""
 
     handle_site_name: str
+
+    @classmethod
+    def edit_spec(cls, spec: mujoco.MjSpec) -> None:
+        """The sash slides on its joint alone (no contacts with the frame, the fixed pane or the wall; stiff
+        limit). The XML's frame body has no name; it is named ``window_frame`` here."""
+        (frame,) = [b for b in spec.bodies if not b.name and b.parent is not None and b.parent.name == WINDOW_BODY]
+        frame.name = "window_frame"
+        guide_by_joint(spec, "windowb_a", SLIDE_JOINT, ("window_frame", "windowb_b", "RetainingWall"))
 
     def bind(self, model) -> None:
         self.slide_qpos = self.joint_qposadr(SLIDE_JOINT)

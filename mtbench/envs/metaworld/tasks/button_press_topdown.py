@@ -34,10 +34,10 @@ Differences:
 * The box's own collision geoms move with it (``WarpSim.set_body_pos``; MuJoCo Warp treats them as static; left
   at the XML position they overlapped the button's rod and held the button up).
 
-Physics notes: the button's joint limit is a soft constraint scaled by the button's 10 g mass, so a hard shove
-pushes it 2-3 cm past the end of its travel (its collar then wedges in the box opening at about 7 cm), and once
-the fingers straddle the cap they can pull it far above its rest position. ``edit_spec`` holds the proposed fix
-(not applied by the framework yet). The scripted policy stops at the end of the travel.
+Physics notes: Meta-World's button joint limit is a soft constraint scaled by the button's 10 g mass, so a hard
+shove pushes it 2-3 cm past the end of its travel (its collar then wedges in the box opening at about 7 cm), and
+once the fingers straddle the cap they can pull it far above its rest position. ``edit_spec`` gives the slide
+an armature and a stiff limit, and lets the joint alone guide the button (no button-box contacts).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ import mujoco
 import torch
 
 from ..reward_utils import hamacher_product, tolerance
-from ..scene import SceneSpec
+from ..scene import SceneSpec, guide_by_joint
 from ..task import MetaWorldTask, TaskState, pad_object_state
 
 
@@ -80,22 +80,17 @@ class ButtonPressTopdown(MetaWorldTask):
     TRAVEL = 0.06  # joint range of btnbox_joint (MTBench target = start - 0.06)
     SUCCESS_TOL = 0.01  # MTBench; Meta-World: 0.024 to the hole site (see module docstring)
 
-    # Proposed scene edit (needs an ``edit_spec`` hook in scene.build_scene; not applied by the framework yet): the
-    # 10 g button's joint limit is a mass-scaled soft constraint, roughly a 30 N/m spring, so the arm can shove the
-    # button 2-3 cm past the end of its travel or pull it far above its rest position once the fingers straddle
-    # the cap, and a hard shove through the box overflows the constraint buffers. An armature of 0.5 kg
-    # on the slide joint plus a stiffer limit keeps it within about 7 mm of its range under the same abuse.
+    # The 10 g button's joint limit is a mass-scaled soft constraint, roughly a 30 N/m spring, so the arm can
+    # shove the button 2-3 cm past the end of its travel or pull it far above its rest position once the fingers
+    # straddle the cap, and a hard shove through the box overflows the constraint buffers. An armature of 0.5 kg
+    # on the slide joint plus a stiff limit keeps it within about 7 mm of its range under the same abuse.
     BUTTON_ARMATURE = 0.5
-    BUTTON_SOLREF_LIMIT = (0.008, 1.0)  # time constant 2 x timestep (the smallest that stays stable)
-    BUTTON_SOLIMP_LIMIT = (0.99, 0.999, 0.001, 0.5, 2.0)
 
     @classmethod
     def edit_spec(cls, spec: mujoco.MjSpec) -> None:
-        """Stiffen the button's joint limit (see ``BUTTON_ARMATURE``); call before compiling the scene."""
-        joint = spec.joint("btnbox_joint")
-        joint.armature = cls.BUTTON_ARMATURE
-        joint.solref_limit = list(cls.BUTTON_SOLREF_LIMIT)
-        joint.solimp_limit = list(cls.BUTTON_SOLIMP_LIMIT)
+        """Button slide: armature (see ``BUTTON_ARMATURE``), stiff limit, guided by its joint alone."""
+        spec.joint("btnbox_joint").armature = cls.BUTTON_ARMATURE
+        guide_by_joint(spec, "button", "btnbox_joint", ("buttonbox", "RetainingWall"))
 
     def bind(self, model) -> None:
         self.box_body = self.body_id("box")
