@@ -5,6 +5,7 @@ A random policy barely touches the objects; a learning one grasps, pushes and pr
 count (hence collision and solver work) rises. Use it to see which part of a training iteration is physics.
 
     python benchmarks/physics_load.py --num-envs 24576 --iters 20
+    python benchmarks/physics_load.py --iters 16 --per-block   # then each task block's physics step alone
 """
 
 from __future__ import annotations
@@ -23,7 +24,31 @@ from hydra import compose, initialize_config_dir
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from mtbench.sim import launch_all  # noqa: E402
 from mtbench.trainer.trainer import Trainer  # noqa: E402
+
+
+def _timed_ms(fn, repeats: int = 5) -> float:
+    torch.cuda.synchronize()
+    t0 = time.perf_counter()
+    for _ in range(repeats):
+        fn()
+    torch.cuda.synchronize()
+    return 1e3 * (time.perf_counter() - t0) / repeats
+
+
+def per_block_report(env) -> None:
+    """Physics step (substeps + kinematics) of all blocks on their own streams, on one stream, and of each block
+    alone, from the current state (the mocap targets stay where the policy left them)."""
+    sims = env._sims
+    par = _timed_ms(lambda: launch_all(sims, "step", parallel_streams=True))
+    ser = _timed_ms(lambda: launch_all(sims, "step", parallel_streams=False))
+    print(f"physics step of all blocks: {par:.1f} ms on block streams, {ser:.1f} ms on one stream")
+    for task, s in env.blocks:
+        ms = _timed_ms(lambda: s.sim.launch("step"))
+        niter = wp.to_torch(s.sim.data.solver_niter).float()
+        print(f"  {task.name:22s} {ms:6.2f} ms | contacts/world {int(wp.to_torch(s.sim.data.nacon)[0]) / s.n:5.2f} "
+              f"| Newton iterations mean {float(niter.mean()):.2f} max {float(niter.max()):.0f}")
 
 
 def main() -> None:
@@ -32,6 +57,7 @@ def main() -> None:
     p.add_argument("--num-envs", type=int, default=24576)
     p.add_argument("--iters", type=int, default=20)
     p.add_argument("--every", type=int, default=3, help="report every N iterations")
+    p.add_argument("--per-block", action="store_true", help="after the last iteration, time each task block")
     args = p.parse_args()
     if not torch.cuda.is_available():
         raise SystemExit("physics_load.py measures GPU timings; no CUDA device found")
@@ -67,6 +93,8 @@ def main() -> None:
         print(f"iter {i + 1}: collect {t1 - t0:.3f}s update {t2 - t1:.3f}s | contacts/world "
               f"{sum(ncon) / len(ncon):.2f} | Newton iterations {sum(niter) / len(niter):.2f} | env step {step_ms:.1f} ms",
               flush=True)
+    if args.per_block:
+        per_block_report(env)
     trainer.close()
 
 
