@@ -115,7 +115,7 @@ def main() -> None:
     parser.add_argument("--env", default="mt10_rand")
     parser.add_argument("--num-envs", type=int, nargs="+", default=[4096, 24576])
     parser.add_argument("--device", default="cuda" if torch.cuda.is_available() else "cpu")
-    parser.add_argument("--steps", type=int, default=300)
+    parser.add_argument("--steps", type=int, default=300, help="timed steps (random policy; scripted: one episode)")
     parser.add_argument("--warmup", type=int, default=20)
     parser.add_argument("--substeps", type=int, default=None)
     parser.add_argument("--one-stream", action="store_true", help="all task blocks on one CUDA stream")

@@ -47,7 +47,7 @@ def make_env(
         num_envs: total worlds (split evenly, MTBench style) or one count per task. Defaults to 1 per task.
         device: torch device (default: ``cuda`` if available, else ``cpu``).
         **overrides: forwarded to :class:`~mtbench.envs.metaworld.MetaWorldEnv` (``seed``, ``rand``,
-            ``reward_scale``, ``episode_length``, ``substeps``, ...).
+            ``reward_scale``, ``episode_length``, ``substeps``, ``robot_collision``, ``box_box_collider``, ...).
     """
     if device is None:
         device = "cuda" if torch.cuda.is_available() else "cpu"

@@ -91,9 +91,6 @@ class MetaWorldEnv(EnvBase):
             raise ValueError(f"task_counts must all be positive, got {counts}")
         if len(set(tasks)) != len(tasks):
             raise ValueError(f"task names must be unique, got {tasks}")
-        if robot_collision not in robot.ROBOT_COLLISIONS:
-            raise ValueError(f"unknown robot_collision {robot_collision!r}; valid choices: "
-                             f"{', '.join(robot.ROBOT_COLLISIONS)}")
         if episode_length < 1:
             raise ValueError(f"episode_length must be positive, got {episode_length}")
         num_envs = sum(counts)
