@@ -37,6 +37,12 @@ def _timed_ms(fn, repeats: int = 5) -> float:
     return 1e3 * (time.perf_counter() - t0) / repeats
 
 
+def _block_load(state) -> tuple[float, torch.Tensor]:
+    """A task block's contacts per world and its worlds' Newton iteration counts of the last physics step."""
+    sim = state.sim
+    return int(wp.to_torch(sim.data.nacon)[0]) / state.n, wp.to_torch(sim.data.solver_niter).float()
+
+
 def per_block_report(env) -> None:
     """Physics step (substeps + kinematics) of all blocks on their own streams, on one stream, and of each block
     alone, from the current state (the mocap targets stay where the policy left them)."""
@@ -46,8 +52,8 @@ def per_block_report(env) -> None:
     print(f"physics step of all blocks: {par:.1f} ms on block streams, {ser:.1f} ms on one stream")
     for task, s in env.blocks:
         ms = _timed_ms(lambda: s.sim.launch("step"))
-        niter = wp.to_torch(s.sim.data.solver_niter).float()
-        print(f"  {task.name:22s} {ms:6.2f} ms | contacts/world {int(wp.to_torch(s.sim.data.nacon)[0]) / s.n:5.2f} "
+        contacts, niter = _block_load(s)
+        print(f"  {task.name:22s} {ms:6.2f} ms | contacts/world {contacts:5.2f} "
               f"| Newton iterations mean {float(niter.mean()):.2f} max {float(niter.max()):.0f}")
 
 
@@ -79,20 +85,13 @@ def main() -> None:
         t2 = time.perf_counter()
         if i % args.every and i != args.iters - 1:
             continue
-        niter, ncon = [], []
-        for _, s in env.blocks:
-            niter.append(float(wp.to_torch(s.sim.data.solver_niter).float().mean()))
-            ncon.append(int(wp.to_torch(s.sim.data.nacon)[0]) / s.n)
+        loads = [_block_load(s) for _, s in env.blocks]
+        ncon = sum(c for c, _ in loads) / len(loads)
+        niter = sum(float(n.mean()) for _, n in loads) / len(loads)
         action = data["action"][:, -1].clone()
-        torch.cuda.synchronize()
-        t3 = time.perf_counter()
-        for _ in range(10):
-            env._core_step(action)
-        torch.cuda.synchronize()
-        step_ms = 100 * (time.perf_counter() - t3)
-        print(f"iter {i + 1}: collect {t1 - t0:.3f}s update {t2 - t1:.3f}s | contacts/world "
-              f"{sum(ncon) / len(ncon):.2f} | Newton iterations {sum(niter) / len(niter):.2f} | env step {step_ms:.1f} ms",
-              flush=True)
+        step_ms = _timed_ms(lambda: env._core_step(action), repeats=10)
+        print(f"iter {i + 1}: collect {t1 - t0:.3f}s update {t2 - t1:.3f}s | contacts/world {ncon:.2f} | "
+              f"Newton iterations {niter:.2f} | env step {step_ms:.1f} ms", flush=True)
     if args.per_block:
         per_block_report(env)
     trainer.close()

@@ -98,8 +98,8 @@ def panda_spec(collision: str = "primitive") -> mujoco.MjSpec:
             j.armature = 0.1
         elif j.name in ("finger_joint1", "finger_joint2"):
             j.damping = [FINGER_DAMPING, 0.0, 0.0]
-    # Mesh collision: the four small ridge boxes on each fingertip (half sizes < 5 mm) make contact normals along the pad plane
-    # that wedge objects sideways; the main pad box and the finger mesh carry the grasp.
+    # Mesh collision: the four small ridge boxes on each fingertip (half sizes < 5 mm) make contact normals along
+    # the pad plane that wedge objects sideways; the main pad box and the finger mesh carry the grasp.
     for geom in spec.geoms:
         if (geom.type == mujoco.mjtGeom.mjGEOM_BOX and "finger" in (geom.parent.name or "")
                 and max(geom.size) < 0.005):

@@ -89,8 +89,8 @@ class ButtonPressTopdown(MetaWorldTask):
     @classmethod
     def edit_spec(cls, spec: mujoco.MjSpec) -> None:
         """Button slide: armature (see ``BUTTON_ARMATURE``), stiff limit, guided by its joint alone."""
+        guide_by_joint(spec, "button", "btnbox_joint", ("buttonbox", "RetainingWall"))  # checks the names
         spec.joint("btnbox_joint").armature = cls.BUTTON_ARMATURE
-        guide_by_joint(spec, "button", "btnbox_joint", ("buttonbox", "RetainingWall"))
 
     def bind(self, model) -> None:
         self.box_body = self.body_id("box")
