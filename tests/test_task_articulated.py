@@ -22,12 +22,10 @@ import pytest
 import torch
 
 from mtbench.envs.metaworld.tasks import _drawer, _window
-from mtbench.envs.metaworld.tasks._drawer import (
-    drawer_close_reward,
-    drawer_close_success,
-    drawer_open_reward,
-    drawer_open_success,
-)
+from mtbench.envs.metaworld.tasks import drawer_close as close_task
+from mtbench.envs.metaworld.tasks import drawer_open as open_task
+from mtbench.envs.metaworld.tasks.drawer_close import drawer_close_reward, drawer_close_success
+from mtbench.envs.metaworld.tasks.drawer_open import drawer_open_reward, drawer_open_success
 from mtbench.envs.metaworld.tasks._window import window_reward, window_success
 from mtbench.envs.metaworld.tasks.drawer_open import DrawerOpen
 from mtbench.envs.metaworld.tasks.window_close import WindowClose
@@ -115,7 +113,7 @@ CABINET = np.array([0.05, 0.9, 0.0])
 
 
 def _drawer_open_goal(cabinet: np.ndarray) -> np.ndarray:
-    return cabinet + np.array(_drawer.OPEN_GOAL_OFFSET)
+    return cabinet + np.array(open_task.GOAL_OFFSET)
 
 
 def test_drawer_open_maximum_and_success() -> None:
@@ -157,11 +155,11 @@ def test_drawer_open_reward_matches_metaworld(ref) -> None:
 # --------------------------------------------------------------------------------------------------------------
 def test_drawer_close_radius_is_metaworlds(ref) -> None:
     # compute_reward reads self.TARGET_RADIUS (the base class's), not the class's unused _TARGET_RADIUS
-    assert _drawer.CLOSE_TARGET_RADIUS == ref.base_target_radius
+    assert close_task.TARGET_RADIUS == ref.base_target_radius
 
 
 def test_drawer_close_known_answers() -> None:
-    goal = _t(CABINET + np.array(_drawer.CLOSE_GOAL_OFFSET))[None]
+    goal = _t(CABINET + np.array(close_task.GOAL_OFFSET))[None]
     handle_closed = CABINET + np.array([0.0, -0.17, 0.14])
     slides = np.array([-0.15, -0.06, -0.054, 0.0])
     handles = _t(handle_closed[None] + np.outer(slides, [0.0, 1.0, 0.0]))
@@ -178,7 +176,7 @@ def test_drawer_close_known_answers() -> None:
 
 def test_drawer_close_reward_matches_metaworld(ref) -> None:
     rng = np.random.default_rng(1)
-    goal = CABINET + np.array(_drawer.CLOSE_GOAL_OFFSET)
+    goal = CABINET + np.array(close_task.GOAL_OFFSET)
     handle_init = CABINET + np.array([0.0, -0.17 - 0.15, 0.14])
     init_tcp = np.array([0.0, 0.6, 0.2])
     checked = 0
@@ -285,15 +283,15 @@ def test_drawer_geometry_matches_xml() -> None:
         d.qpos[adr] = slide
         mujoco.mj_kinematics(m, d)
         link = d.body("drawer_link").xpos
-        handle_open[slide] = (link + _drawer.OPEN_HANDLE_OFFSET, link + _drawer.CLOSE_HANDLE_OFFSET)
-    open_goal = CABINET + _drawer.OPEN_GOAL_OFFSET
-    close_goal = CABINET + _drawer.CLOSE_GOAL_OFFSET
+        handle_open[slide] = (link + open_task.HANDLE_OFFSET, link + close_task.HANDLE_OFFSET)
+    open_goal = CABINET + open_task.GOAL_OFFSET
+    close_goal = CABINET + close_task.GOAL_OFFSET
     # drawer_open: the success target is the fully open handle point; Meta-World's handle_pos_init is the closed one
-    np.testing.assert_allclose(handle_open[-0.16][0], open_goal + _drawer.OPEN_SUCCESS_FROM_GOAL, atol=1e-9)
-    np.testing.assert_allclose(handle_open[0.0][0][:2], (open_goal + (0, _drawer.OPEN_MAX_DIST, 0))[:2] -
+    np.testing.assert_allclose(handle_open[-0.16][0], open_goal + open_task.SUCCESS_FROM_GOAL, atol=1e-9)
+    np.testing.assert_allclose(handle_open[0.0][0][:2], (open_goal + (0, open_task.MAX_DIST, 0))[:2] -
                                (0, 0.01), atol=1e-9)
     # drawer_close: the success target is the closed handle point
-    np.testing.assert_allclose(handle_open[0.0][1], close_goal + _drawer.CLOSE_SUCCESS_FROM_GOAL, atol=1e-9)
+    np.testing.assert_allclose(handle_open[0.0][1], close_goal + close_task.SUCCESS_FROM_GOAL, atol=1e-9)
 
 
 def test_window_geometry_matches_xml() -> None:

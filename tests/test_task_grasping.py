@@ -1,6 +1,6 @@
 """Known-answer tests of the grasping tasks' rewards and success rules (push, pick_place, peg_insert_side).
 
-No physics: the tasks' pure ``reward_and_success`` functions run on hand-set states. The dense rewards are compared
+No physics: the tasks' pure reward and success functions run on hand-set states. The dense rewards are compared
 with Meta-World's own ``compute_reward`` (metaworld 3.0.0, the "v2" reward) evaluated with numpy on the same
 numbers: the methods are compiled from the installed metaworld source files and called on a stand-in ``self``
 (``import metaworld`` itself needs optional rendering packages). Meta-World replaces the reward by 10 on its own
@@ -22,9 +22,32 @@ import pytest
 import torch
 
 from mtbench.envs.metaworld.tasks import _grasp
+from mtbench.envs.metaworld.tasks import peg_insert_side as peg_task
+from mtbench.envs.metaworld.tasks import pick_place as pick_place_task
+from mtbench.envs.metaworld.tasks import push as push_task
 from mtbench.envs.metaworld.tasks.peg_insert_side import PegInsertSide
 from mtbench.envs.metaworld.tasks.pick_place import PickPlace
 from mtbench.envs.metaworld.tasks.push import Push
+
+
+def _push_rs(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp):
+    """(dense reward, success) of push on named state tensors."""
+    return (push_task.push_reward(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp),
+            push_task.push_success(obj, opened, tcp, goal))
+
+
+def _pick_place_rs(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp, init_left, init_right):
+    """(dense reward, success) of pick_place on named state tensors."""
+    return (pick_place_task.pick_place_reward(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp,
+                                              init_left, init_right),
+            pick_place_task.pick_place_success(obj, goal))
+
+
+def _peg_rs(action, obj, opened, head, tcp, left, right, goal, obj_init_pos, init_tcp, head_init, *corners):
+    """(dense reward, success) of peg_insert_side on named state tensors."""
+    return (peg_task.peg_insert_side_reward(action, obj, opened, head, tcp, left, right, goal, obj_init_pos, init_tcp,
+                                            head_init, *corners),
+            peg_task.peg_insert_side_success(head, goal))
 
 ATOL = 2e-4  # float32 torch vs float64 numpy on rewards of scale 1..10
 
@@ -148,7 +171,7 @@ def _stack(states: list[dict[str, np.ndarray]], key: str) -> torch.Tensor:
 # push
 # --------------------------------------------------------------------------------------------------------------
 def _push(states):
-    return Push.reward_and_success(
+    return _push_rs(
         _stack(states, "action"), _stack(states, "obj"), _stack(states, "opened"), _stack(states, "tcp"),
         _stack(states, "left"), _stack(states, "right"), _stack(states, "goal"), _stack(states, "obj_init"),
         _stack(states, "init_tcp"))
@@ -160,7 +183,7 @@ def test_push_dense_matches_metaworld(ref) -> None:
     expected = []
     for s in states:
         env = _FakeEnv(ref["caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"], goal=s["goal"],
-                       obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"], target_radius=Push.TARGET_RADIUS)
+                       obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"], target_radius=push_task.TARGET_RADIUS)
         expected.append(ref["push"](env, s["action"], _obs(s["tcp"], s["opened"], s["obj"]))[0])
     np.testing.assert_allclose(reward.numpy(), np.array(expected), atol=ATOL, rtol=0)
     assert not success.any()  # every goal is > 5 cm away
@@ -176,26 +199,26 @@ def test_push_success_and_maximum_at_goal() -> None:
     args = dict(goal=goal, obj_init_pos=torch.tensor([[0.0, 0.65, 0.02]]) - torch.tensor([0.0, 0.2, 0.0]),
                 init_tcp=torch.tensor([[0.0, 0.6, 0.2]]))
     action = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
-    reward, success = Push.reward_and_success(action, obj, torch.tensor([0.48]), tcp, left, right, **args)
+    reward, success = _push_rs(action, obj, torch.tensor([0.48]), tcp, left, right, **args)
     assert success.item()
     # caged and gripping: grasp = 1, in_place = 1 -> 1 + 2 * (2 * 1) + 5 * 1
     torch.testing.assert_close(reward, torch.tensor([10.0]), atol=1e-4, rtol=0)
     # MTBench's extra conditions: the hand must be within 2 cm of the puck and the gripper not fully closed
     far_tcp = obj + torch.tensor([0.0, 0.0, 0.025])
-    _, success = Push.reward_and_success(action, obj, torch.tensor([0.48]), far_tcp, left, right, **args)
+    _, success = _push_rs(action, obj, torch.tensor([0.48]), far_tcp, left, right, **args)
     assert not success.item()
-    _, success = Push.reward_and_success(action, obj, torch.tensor([0.0]), tcp, left, right, **args)
+    _, success = _push_rs(action, obj, torch.tensor([0.0]), tcp, left, right, **args)
     assert not success.item()
     # 4.9 cm from the goal succeeds, 5.1 cm does not (strict <)
     for d, ok in ((0.049, True), (0.051, False)):
         moved = obj + torch.tensor([d, 0.0, 0.0])
-        _, success = Push.reward_and_success(action, moved, torch.tensor([0.48]), moved, left, right, **args)
+        _, success = _push_rs(action, moved, torch.tensor([0.48]), moved, left, right, **args)
         assert success.item() is ok
 
 
 def test_push_far_state_small_reward() -> None:
     obj = torch.tensor([[0.0, 0.65, 0.02]])
-    reward, success = Push.reward_and_success(
+    reward, success = _push_rs(
         torch.tensor([[0.0, 0.0, 0.0, -1.0]]), obj, torch.tensor([1.0]), torch.tensor([[0.0, 0.6, 0.2]]),
         torch.tensor([[0.0, 0.645, 0.2]]), torch.tensor([[0.0, 0.555, 0.2]]), torch.tensor([[0.1, 0.85, 0.02]]),
         obj, torch.tensor([[0.0, 0.6, 0.2]]))
@@ -206,7 +229,7 @@ def test_push_far_state_small_reward() -> None:
 # pick_place
 # --------------------------------------------------------------------------------------------------------------
 def _pick_place(states):
-    return PickPlace.reward_and_success(
+    return _pick_place_rs(
         _stack(states, "action"), _stack(states, "obj"), _stack(states, "opened"), _stack(states, "tcp"),
         _stack(states, "left"), _stack(states, "right"), _stack(states, "goal"), _stack(states, "obj_init"),
         _stack(states, "init_tcp"), _stack(states, "init_left"), _stack(states, "init_right"))
@@ -257,14 +280,14 @@ def test_pick_place_success_threshold() -> None:
     for d, ok in ((0.0, True), (0.049, True), (0.051, False), (0.069, False)):  # MTBench < 0.05 (Meta-World 0.07)
         obj = goal + torch.tensor([0.0, 0.0, -d])
         tcp = obj.clone()
-        reward, success = PickPlace.reward_and_success(
+        reward, success = _pick_place_rs(
             torch.tensor([[0.0, 0.0, 0.0, 1.0]]), obj, torch.tensor([0.48]), tcp, tcp + torch.tensor([0, 0.024, 0]),
             tcp - torch.tensor([0, 0.024, 0]), goal, obj_init, torch.tensor([[0.0, 0.6, 0.2]]),
             torch.tensor([[0.0, 0.645, 0.2]]), torch.tensor([[0.0, 0.555, 0.2]]))
         assert success.item() is ok
         assert reward.item() > 1.0  # held and lifted
     # at the goal, held: hamacher(grasp, 1) + 1 + 5 = grasp + 6 with grasp in [0, 1]
-    assert 6.0 <= PickPlace.reward_and_success(
+    assert 6.0 <= _pick_place_rs(
         torch.tensor([[0.0, 0.0, 0.0, 1.0]]), goal, torch.tensor([0.48]), goal, goal + torch.tensor([0, 0.024, 0]),
         goal - torch.tensor([0, 0.024, 0]), goal, obj_init, torch.tensor([[0.0, 0.6, 0.2]]),
         torch.tensor([[0.0, 0.645, 0.2]]), torch.tensor([[0.0, 0.555, 0.2]]))[0].item() <= 7.0
@@ -281,15 +304,14 @@ _CORNERS = {
     "bottom_right_corner_collision_box_2": _BOX + [0.11, 0.1, 0.16],
     "top_left_corner_collision_box_2": _BOX + [0.17, -0.1, 0.19],
 }
-_SCALE = torch.tensor(PegInsertSide.DIST_SCALE)
 
 
 def _peg(states):
     corners = [_t(np.repeat(_f32(v)[None], len(states), 0)) for v in _CORNERS.values()]
-    return PegInsertSide.reward_and_success(
+    return _peg_rs(
         _stack(states, "action"), _stack(states, "obj"), _stack(states, "opened"), _stack(states, "head"),
         _stack(states, "tcp"), _stack(states, "left"), _stack(states, "right"), _stack(states, "goal"),
-        _stack(states, "obj_init"), _stack(states, "init_tcp"), _stack(states, "head_init"), *corners, scale=_SCALE)
+        _stack(states, "obj_init"), _stack(states, "init_tcp"), _stack(states, "head_init"), *corners)
 
 
 def _peg_states(rng: np.random.Generator, n: int) -> list[dict[str, np.ndarray]]:
@@ -313,7 +335,7 @@ def test_peg_dense_matches_metaworld(ref) -> None:
     for s in states:
         env = _FakeEnv(ref["caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"], goal=s["goal"],
                        obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"], sites={"pegHead": s["head"], **_CORNERS},
-                       target_radius=PegInsertSide.REWARD_RADIUS, peg_head_pos_init=s["head_init"])
+                       target_radius=peg_task.REWARD_RADIUS, peg_head_pos_init=s["head_init"])
         out = ref["peg"](env, s["action"], _obs(s["tcp"], s["opened"], s["obj"]))
         expected.append(out[0])
         scaled.append(out[3])
@@ -332,18 +354,18 @@ def test_peg_success_uses_scaled_distance() -> None:
     for offset, ok in cases:
         head = goal + torch.tensor([offset])
         obj = head + torch.tensor([[0.13, 0.0, 0.01]])
-        reward, success = PegInsertSide.reward_and_success(
+        reward, success = _peg_rs(
             torch.tensor([[0.0, 0.0, 0.0, 1.0]]), obj, torch.tensor([0.38]), head, obj,
             obj + torch.tensor([0, 0.019, 0]), obj - torch.tensor([0, 0.019, 0]), goal,
             torch.tensor([[0.1, 0.6, 0.02]]), torch.tensor([[0.0, 0.6, 0.2]]), torch.tensor([[0.0, 0.6, 0.02]]),
-            *corners, scale=_SCALE)
+            *corners)
         assert success.item() is ok, offset
         assert reward.item() > 1.0  # lifted and held
     # inserted (in_place = 1, lifted: grasp forced to 1) gives the maximal dense reward 1 + 1 + 5
-    torch.testing.assert_close(reward.new_tensor(7.0), PegInsertSide.reward_and_success(
+    torch.testing.assert_close(reward.new_tensor(7.0), _peg_rs(
         torch.tensor([[0.0, 0.0, 0.0, 1.0]]), goal + torch.tensor([[0.13, 0.0, 0.01]]), torch.tensor([0.38]), goal,
         goal + torch.tensor([[0.13, 0.0, 0.01]]), goal, goal, goal, torch.tensor([[0.1, 0.6, 0.02]]),
-        torch.tensor([[0.0, 0.6, 0.2]]), torch.tensor([[0.0, 0.6, 0.02]]), *corners, scale=_SCALE)[0][0])
+        torch.tensor([[0.0, 0.6, 0.2]]), torch.tensor([[0.0, 0.6, 0.02]]), *corners)[0][0])
 
 
 # --------------------------------------------------------------------------------------------------------------

@@ -108,6 +108,19 @@ def test_resume_refuses_a_different_configuration(tmp_path: Path) -> None:
         Trainer(_cfg(tmp_path, "loss.horizon=4", f"resume={tmp_path / 'ckpt' / 'final.pt'}"), env=_env())
 
 
+def test_resume_refuses_another_reward_version_and_logs_it(tmp_path: Path) -> None:
+    logger = RecordingLogger()
+    paper = _env()
+    paper.reward_version = "paper"
+    Trainer(_cfg(tmp_path, "max_iterations=1"), env=paper, logger=logger).train()
+    assert logger.hparams[0]["env_info"]["reward_version"] == "paper"
+    assert load_checkpoint(tmp_path / "ckpt" / "final.pt")["env_info"]["reward_version"] == "paper"
+    v2 = _env()
+    v2.reward_version = "v2"
+    with pytest.raises(ValueError, match="reward_version: checkpoint='paper' current='v2'"):
+        Trainer(_cfg(tmp_path, f"resume={tmp_path / 'ckpt' / 'final.pt'}"), env=v2)
+
+
 def test_non_finite_updates_are_skipped_and_counted(tmp_path: Path) -> None:
     # the reward of env 0 is NaN at step 10, i.e. in the second iteration (horizon 8)
     trainer = Trainer(_cfg(tmp_path, "max_iterations=3"), env=_env(nan_reward_at_step=10))

@@ -7,14 +7,14 @@ from typing import Any, Sequence
 import torch
 from torchrl.envs import EnvBase
 
-from .metaworld import ALL_TASK_NAMES, MT10, MT50, MetaWorldEnv
+from .metaworld import ALL_TASK_NAMES, MetaWorldEnv, benchmark_tasks
 
-# name -> (task list, resample object/goal at every reset?)
-METAWORLD_SETS: dict[str, tuple[tuple[str, ...], bool]] = {
-    "mt10": (MT10, False),
-    "mt10_rand": (MT10, True),
-    "mt50": (MT50, False),
-    "mt50_rand": (MT50, True),
+# name -> (benchmark, resample object/goal at every reset?)
+METAWORLD_SETS: dict[str, tuple[str, bool]] = {
+    "mt10": ("mt10", False),
+    "mt10_rand": ("mt10", True),
+    "mt50": ("mt50", False),
+    "mt50_rand": ("mt50", True),
 }
 
 
@@ -53,9 +53,9 @@ def make_env(
         device = "cuda" if torch.cuda.is_available() else "cpu"
     if isinstance(name, str):
         if name in METAWORLD_SETS:
-            tasks, rand = METAWORLD_SETS[name]
+            benchmark, rand = METAWORLD_SETS[name]
             overrides.setdefault("rand", rand)
-            tasks = list(tasks)
+            tasks = list(benchmark_tasks(benchmark))
         elif name in ALL_TASK_NAMES:
             tasks = [name]
         else:

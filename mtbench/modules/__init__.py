@@ -15,7 +15,6 @@ from .paco import PaCo
 from .registry import ARCHITECTURES, arch_kwargs, make_network, register_architecture
 from .soft_modularization import SoftModularization
 from .stacked_linear import StackedLinear
-from .task_descriptions import METAWORLD_TASK_DESCRIPTIONS, canonical_task_name, task_description
 from .task_embeddings import pretrained_task_embeddings
 from .td_module import make_td_network
 
@@ -23,7 +22,6 @@ __all__ = [
     "ARCHITECTURES",
     "CARE",
     "CompositionalLinear",
-    "METAWORLD_TASK_DESCRIPTIONS",
     "MLP",
     "MOORE",
     "MultiHeadMLP",
@@ -33,12 +31,10 @@ __all__ = [
     "StackedLinear",
     "activation_class",
     "arch_kwargs",
-    "canonical_task_name",
     "gram_schmidt",
     "make_network",
     "make_td_network",
     "mlp_layers",
     "pretrained_task_embeddings",
     "register_architecture",
-    "task_description",
 ]

@@ -13,7 +13,7 @@ from .experts import ParallelExperts
 from .inputs import check_sizes, flatten_inputs, unflatten_output
 from .mlp import mlp_layers
 from .stacked_linear import StackedLinear
-from .task_embeddings import MissingTaskDescriptionError, pretrained_task_embeddings
+from .task_embeddings import pretrained_task_embeddings
 
 _ATTENTIONS = ("dot", "task")
 _CONTEXTS = ("pretrained", "learned")
@@ -36,8 +36,8 @@ class CARE(nn.Module):
       ``Linear(d, 2d) ReLU Linear(2d, d) ReLU`` (MTBench) -> context MLP ``[50, 50]`` ReLU.
       ``context="learned"`` replaces the frozen table by a trainable ``Embedding(num_tasks, learned_embedding_dim)``
       feeding the context MLP directly. ``"pretrained"`` falls back to ``"learned"`` (with a warning) when
-      ``task_names`` is not given, a name has no description (e.g. Parkour terrains) or the encoder package is
-      missing and the embeddings are not cached.
+      ``task_descriptions`` (one sentence per task, e.g. ``env.task_descriptions``) is not given or the encoder
+      package is missing and the embeddings are not cached.
     * Mixture of ``num_experts`` encoders on the state (``num_layers`` layers of width ``hidden_dim`` = D = 50).
     * Attention (default ``"dot"``, MTBench): ``alpha_e = softmax_e(z_ctx.detach() . phi_e(s) / T)``, state
       dependent; then ``z_enc = sum_e alpha_e phi_e(s)`` goes through the post-attention MLP ``attention_hidden``.
@@ -56,7 +56,7 @@ class CARE(nn.Module):
         obs_dim: int,
         out_dim: int,
         num_tasks: int,
-        task_names: Sequence[str] | None = None,
+        task_descriptions: Sequence[str] | None = None,
         num_experts: int = 6,
         num_layers: int = 2,
         hidden_dim: int = 50,
@@ -84,15 +84,15 @@ class CARE(nn.Module):
             raise ValueError(
                 f"care: dot-product attention needs context_hidden[-1] ({context_hidden[-1]}) == hidden_dim ({hidden_dim})"
             )
-        if task_names is not None and len(task_names) != num_tasks:
-            raise ValueError(f"care: got {len(task_names)} task_names for num_tasks={num_tasks}")
+        if task_descriptions is not None and len(task_descriptions) != num_tasks:
+            raise ValueError(f"care: got {len(task_descriptions)} task_descriptions for num_tasks={num_tasks}")
         self.obs_dim = obs_dim
         self.num_tasks = num_tasks
         self.temperature = float(temperature)
         self.attention = attention
         self.multi_head = multi_head
 
-        table = self._pretrained_table(task_names, embedding_cache_dir) if context == "pretrained" else None
+        table = self._pretrained_table(task_descriptions, embedding_cache_dir) if context == "pretrained" else None
         self.context = "pretrained" if table is not None else "learned"
         if table is not None:
             self.register_buffer("context_table", table)  # frozen: a buffer, never a trainable parameter
@@ -129,14 +129,15 @@ class CARE(nn.Module):
 
     @staticmethod
     def _pretrained_table(
-        task_names: Sequence[str] | None, cache_dir: str | os.PathLike[str] | None
+        task_descriptions: Sequence[str] | None, cache_dir: str | os.PathLike[str] | None
     ) -> torch.Tensor | None:
-        if task_names is None:
-            warnings.warn("care: no task_names given; using learned task embeddings (context='learned')", stacklevel=3)
+        if task_descriptions is None:
+            warnings.warn("care: no task_descriptions given; using learned task embeddings (context='learned')",
+                          stacklevel=3)
             return None
         try:
-            return pretrained_task_embeddings(task_names, cache_dir=cache_dir)
-        except (MissingTaskDescriptionError, ImportError) as err:
+            return pretrained_task_embeddings(task_descriptions, cache_dir=cache_dir)
+        except ImportError as err:
             warnings.warn(f"care: {err}; using learned task embeddings (context='learned')", stacklevel=3)
             return None
 

@@ -32,14 +32,15 @@ _ROLES = ("actor", "critic")
 def register_architecture(name: str, constructor: Callable[..., nn.Module]) -> None:
     """Register a network constructor ``constructor(obs_dim=, out_dim=, num_tasks=, **kwargs)``.
 
-    A constructor that declares a ``task_names`` parameter receives the task names given to :func:`make_network`.
+    A constructor that declares a ``task_descriptions`` parameter receives the task descriptions given to
+    :func:`make_network`.
     """
     ARCHITECTURES[name] = constructor
 
 
-def _accepts_task_names(constructor: Callable[..., nn.Module]) -> bool:
+def _accepts_task_descriptions(constructor: Callable[..., nn.Module]) -> bool:
     try:
-        return "task_names" in inspect.signature(constructor).parameters
+        return "task_descriptions" in inspect.signature(constructor).parameters
     except (TypeError, ValueError):
         return False
 
@@ -50,13 +51,13 @@ def make_network(
     obs_dim: int,
     out_dim: int,
     num_tasks: int,
-    task_names: Sequence[str] | None = None,
+    task_descriptions: Sequence[str] | None = None,
     **kwargs: Any,
 ) -> nn.Module:
     """Build the network ``arch`` mapping ``(observation, task_id)`` to ``out_dim`` features.
 
-    ``task_names`` (the env's ``task_names``, length ``num_tasks``) is forwarded only to constructors that declare a
-    ``task_names`` parameter (CARE uses them to look up task descriptions).
+    ``task_descriptions`` (the env's ``task_descriptions``: one sentence per task, length ``num_tasks``) is forwarded
+    only to constructors that declare a ``task_descriptions`` parameter (CARE embeds them as its task context).
     """
     if arch not in ARCHITECTURES:
         raise ValueError(f"unknown arch {arch!r}; valid choices: {sorted(ARCHITECTURES)}")
@@ -64,16 +65,17 @@ def make_network(
         raise ValueError(
             f"arch {arch!r}: obs_dim={obs_dim} must exceed num_tasks={num_tasks} >= 1 (observation = state + one-hot)"
         )
-    if isinstance(task_names, str):
-        raise ValueError(f"arch {arch!r}: task_names must be a sequence of names, got the string {task_names!r}")
-    if task_names is not None and len(task_names) != num_tasks:
+    if isinstance(task_descriptions, str):
+        raise ValueError(f"arch {arch!r}: task_descriptions must be a sequence of sentences, got the string "
+                         f"{task_descriptions!r}")
+    if task_descriptions is not None and len(task_descriptions) != num_tasks:
         raise ValueError(
-            f"arch {arch!r}: got {len(task_names)} task_names for num_tasks={num_tasks}; they must match "
-            "(pass env.task_names and env.num_tasks)"
+            f"arch {arch!r}: got {len(task_descriptions)} task_descriptions for num_tasks={num_tasks}; they must "
+            "match (pass env.task_descriptions and env.num_tasks)"
         )
     constructor = ARCHITECTURES[arch]
-    if task_names is not None and _accepts_task_names(constructor):
-        kwargs["task_names"] = list(task_names)
+    if task_descriptions is not None and _accepts_task_descriptions(constructor):
+        kwargs["task_descriptions"] = list(task_descriptions)
     return constructor(obs_dim=obs_dim, out_dim=out_dim, num_tasks=num_tasks, **kwargs)
 
 

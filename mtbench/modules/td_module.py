@@ -16,7 +16,7 @@ def make_td_network(
     out_dim: int,
     num_tasks: int,
     out_key: str | tuple[str, ...],
-    task_names: Sequence[str] | None = None,
+    task_descriptions: Sequence[str] | None = None,
     in_keys: Sequence[str | tuple[str, ...]] = ("observation", "task_id"),
     **kwargs: Any,
 ) -> TensorDictModule:
@@ -29,5 +29,6 @@ def make_td_network(
     in_keys = list(in_keys)
     if len(in_keys) != 2:
         raise ValueError(f"make_td_network: in_keys must be (observation_key, task_id_key), got {in_keys!r}")
-    net = make_network(arch, obs_dim=obs_dim, out_dim=out_dim, num_tasks=num_tasks, task_names=task_names, **kwargs)
+    net = make_network(arch, obs_dim=obs_dim, out_dim=out_dim, num_tasks=num_tasks,
+                       task_descriptions=task_descriptions, **kwargs)
     return TensorDictModule(net, in_keys=in_keys, out_keys=[out_key])

@@ -65,14 +65,15 @@ def make_actor(
     obs_dim: int,
     action_dim: int,
     num_tasks: int,
-    task_names: Sequence[str] | None = None,
+    task_descriptions: Sequence[str] | None = None,
     log_std_init: float = 0.0,
     device: torch.device | str | None = None,
 ) -> ProbabilisticActor:
     """Gaussian actor: ``(observation, task_id) -> loc, scale -> action ~ IndependentNormal``, with
     ``action_log_prob``. Actions are not squashed (the env clamps them to [-1, 1])."""
     name, kwargs = resolve_arch(arch_cfg, "actor")
-    net = make_network(name, obs_dim=obs_dim, out_dim=action_dim, num_tasks=num_tasks, task_names=task_names, **kwargs)
+    net = make_network(name, obs_dim=obs_dim, out_dim=action_dim, num_tasks=num_tasks,
+                       task_descriptions=task_descriptions, **kwargs)
     head = GaussianPolicyHead(net, action_dim, log_std_init)
     module = TensorDictModule(head, in_keys=["observation", "task_id"], out_keys=["loc", "scale"])
     actor = ProbabilisticActor(
@@ -91,12 +92,13 @@ def make_critic(
     *,
     obs_dim: int,
     num_tasks: int,
-    task_names: Sequence[str] | None = None,
+    task_descriptions: Sequence[str] | None = None,
     device: torch.device | str | None = None,
 ) -> TensorDictModule:
     """Value network ``(observation, task_id) -> state_value [..., 1]`` (normalised values for MT-PPO)."""
     name, kwargs = resolve_arch(arch_cfg, "critic")
-    net = make_network(name, obs_dim=obs_dim, out_dim=1, num_tasks=num_tasks, task_names=task_names, **kwargs)
+    net = make_network(name, obs_dim=obs_dim, out_dim=1, num_tasks=num_tasks, task_descriptions=task_descriptions,
+                       **kwargs)
     critic = TensorDictModule(net, in_keys=["observation", "task_id"], out_keys=["state_value"])
     return critic.to(device) if device is not None else critic
 

@@ -118,6 +118,9 @@ class Trainer:
                 raise TypeError(f"env {type(self.base_env).__name__} lacks '{attr}' (mtbench env contract)")
         self.num_tasks = int(self.base_env.num_tasks)
         self.task_names = list(self.base_env.task_names)
+        # one sentence per task (CARE's context); envs without descriptions give CARE learned task embeddings
+        descriptions = getattr(self.base_env, "task_descriptions", None)
+        self.task_descriptions = list(descriptions) if descriptions is not None else None
         self.obs_norm: PerTaskObservationNorm | None = None
         if lc.get("normalize_input", True):
             self.obs_norm = PerTaskObservationNorm(
@@ -134,7 +137,8 @@ class Trainer:
         # ---------------------------------------------------------------- networks and loss
         arch = cfg.get("arch")
         self.actor = make_actor(
-            arch, obs_dim=obs_dim, action_dim=action_dim, num_tasks=self.num_tasks, task_names=self.task_names,
+            arch, obs_dim=obs_dim, action_dim=action_dim, num_tasks=self.num_tasks,
+            task_descriptions=self.task_descriptions,
             log_std_init=float(lc.get("log_std_init", 0.0)), device=self.device,
         )
         common = dict(
@@ -147,7 +151,8 @@ class Trainer:
         )
         if lc.name == "ppo":
             self.critic = make_critic(
-                arch, obs_dim=obs_dim, num_tasks=self.num_tasks, task_names=self.task_names, device=self.device
+                arch, obs_dim=obs_dim, num_tasks=self.num_tasks, task_descriptions=self.task_descriptions,
+                device=self.device,
             )
             self.loss: MTClipPPOBase = MTPPOLoss(
                 self.actor,
@@ -423,7 +428,9 @@ class Trainer:
             initial=self.iteration,
         )
         if self.logger is not None and not self._hparams_logged:
-            self.logger.log_hparams(self.cfg)
+            hparams = OmegaConf.to_container(self.cfg, resolve=True)
+            hparams["env_info"] = self.env_info()  # e.g. the reward version the env actually runs
+            self.logger.log_hparams(OmegaConf.create(hparams))
             self._hparams_logged = True
         history: list[dict[str, float]] = []
         stop = _StopRequest()
@@ -457,12 +464,19 @@ class Trainer:
         return self.window.table()
 
     # ------------------------------------------------------------------ checkpointing
+    def env_info(self) -> dict[str, Any]:
+        """Properties of the env that define what a run measures (recorded in logs and checkpoints; a run only
+        resumes from a checkpoint with the same values): the env class and its ``reward_version``."""
+        return {"env_class": type(self.base_env).__name__,
+                "reward_version": getattr(self.base_env, "reward_version", None)}
+
     def state_dict(self) -> dict[str, Any]:
         """Everything needed to continue the run bit-for-bit (on the same device type)."""
         carrier = getattr(self.collector, "_carrier", None)
         state: dict[str, Any] = {
             "version": CHECKPOINT_VERSION,
             "config": OmegaConf.to_container(self.cfg, resolve=True),
+            "env_info": self.env_info(),
             "counters": {
                 "iteration": self.iteration,
                 "frames": self.frames,
@@ -512,6 +526,10 @@ class Trainer:
             a, b = OmegaConf.select(saved, key), OmegaConf.select(self.cfg, key)
             if a != b:
                 diffs.append(f"{key}: checkpoint={a!r} current={b!r}")
+        for key, value in self.env_info().items():
+            saved_value = (state.get("env_info") or {}).get(key, value)
+            if saved_value != value:
+                diffs.append(f"env {key}: checkpoint={saved_value!r} current={value!r}")
         if diffs:
             raise ValueError(f"cannot resume from {path}: configuration differs ({'; '.join(diffs)})")
         c = state["counters"]

@@ -11,11 +11,12 @@ from torchrl.envs import EnvBase
 
 from ...sim import WarpSim, launch_all, warp_device
 from ...utils import GraphedStage
+from . import observation as layout
 from . import robot
 from .models import compiled_task
-from .task import HAND_HIGH, HAND_LOW, MetaWorldTask, TaskState
+from .task import HAND_HIGH, HAND_LOW, REWARD_VERSIONS, MetaWorldTask, Reward, TaskState
 
-STATE_DIM = 39
+STATE_DIM = layout.STATE_DIM
 ACTION_DIM = 4
 
 
@@ -25,11 +26,12 @@ class MetaWorldEnv(EnvBase):
     Each task is its own MuJoCo Warp model (one kinematic tree per batch); on the GPU the blocks step
     concurrently on separate CUDA streams, each block's physics as a captured CUDA graph.
 
-    Observation: Meta-World's 39-d layout ``[tcp(3), gripper_open(1), obj1 pos+quat(7), obj2 pos+quat(7),
-    previous 18-d frame, goal(3)]`` followed by the one-hot task id (``K`` dims). Quaternions are MuJoCo's wxyz.
-    Action: ``[-1, 1]^4``: TCP displacement (``robot.ACTION_SCALE`` m per step at full scale) and gripper effort
-    (+1 closes). Reward (paper-era MTBench): ``success_bonus`` on steps where the task is solved, otherwise the
-    Meta-World v2 dense reward times ``task.dense_scale`` (0.01) times ``reward_scale``. Episodes last
+    Observation: Meta-World's 39-d layout (:mod:`.observation`: ``[tcp(3), gripper_open(1), obj1 pos+quat(7),
+    obj2 pos+quat(7), previous 18-d frame, goal(3)]``) followed by the one-hot task id (``K`` dims). Quaternions
+    are MuJoCo's wxyz. Action: ``[-1, 1]^4``: TCP displacement (``robot.ACTION_SCALE`` m per step at full scale)
+    and gripper effort (+1 closes). Reward (paper-era MTBench): ``task.success_reward`` (the task's bonus, 10 or 20)
+    on steps where the task is solved, otherwise the task's dense reward times ``task.dense_scale`` (0.01) times
+    ``reward_scale``. Episodes last
     ``episode_length`` steps and end by truncation only; the env resets finished worlds itself (TorchRL native
     autoreset) and returns the first observation of the next episode.
 
@@ -58,6 +60,8 @@ class MetaWorldEnv(EnvBase):
             collision meshes; much cheaper contacts on the GPU) or ``"mesh"`` (Menagerie's convex meshes).
         box_box_collider: ``"primitive"`` (MuJoCo C's box-box routine) or ``"gjk"`` (MuJoCo Warp's default
             GJK/EPA); see :class:`~mtbench.sim.WarpSim`.
+        reward_version: ``"paper"`` (the paper-era MTBench rewards, default) or ``"v2"`` (mtbench's redesigned
+            rewards for the tasks MT-PPO cannot learn from the paper-era ones; see ``docs/metaworld.md``).
     """
 
     _torchrl_native_autoreset = True
@@ -82,6 +86,7 @@ class MetaWorldEnv(EnvBase):
         graph_warmup: int = 2,
         robot_collision: str = "primitive",
         box_box_collider: str = "primitive",
+        reward_version: str = "paper",
     ) -> None:
         tasks = list(tasks)
         counts = [int(c) for c in task_counts]
@@ -91,6 +96,8 @@ class MetaWorldEnv(EnvBase):
             raise ValueError(f"task_counts must all be positive, got {counts}")
         if len(set(tasks)) != len(tasks):
             raise ValueError(f"task names must be unique, got {tasks}")
+        if reward_version not in REWARD_VERSIONS:
+            raise ValueError(f"unknown reward_version {reward_version!r}; valid choices: {list(REWARD_VERSIONS)}")
         if episode_length < 1:
             raise ValueError(f"episode_length must be positive, got {episode_length}")
         num_envs = sum(counts)
@@ -100,6 +107,7 @@ class MetaWorldEnv(EnvBase):
         self.__dict__["_torchrl_native_autoreset"] = True
         dev = self.device
         self.task_names = tasks
+        self.reward_version = reward_version
         self.task_counts = counts
         self.num_tasks = len(tasks)
         self.state_dim = STATE_DIM
@@ -110,6 +118,7 @@ class MetaWorldEnv(EnvBase):
         self._generator = torch.Generator(device=dev)
         self._generator.manual_seed(seed)
         self.blocks: list[tuple[MetaWorldTask, TaskState]] = []
+        self._dense_rewards: list[Reward] = []
         self.slices: list[slice] = []
         start = 0
         for name, count in zip(tasks, counts):
@@ -118,12 +127,14 @@ class MetaWorldEnv(EnvBase):
                           batched_fields=("body_pos",), use_graph=use_graph,
                           box_box_collider=box_box_collider)
             task = task_cls(mjm, dev)
-            self.blocks.append((task, TaskState(sim=sim, n=count, device=dev)))
+            self.blocks.append((task, task.new_state(sim, count)))
+            self._dense_rewards.append(task.dense_reward(reward_version))
             self.slices.append(slice(start, start + count))
             start += count
         self.task_id = torch.repeat_interleave(torch.arange(self.num_tasks, device=dev),
                                                torch.tensor(counts, device=dev))
         self._one_hot = torch.nn.functional.one_hot(self.task_id, self.num_tasks).float()
+        self.task_descriptions = [task.description for task, _ in self.blocks]
         hand_offset = torch.tensor([0.0, 0.0, robot.TCP_OFFSET], device=dev)
         self._mocap_low = torch.tensor(HAND_LOW, device=dev) + hand_offset
         self._mocap_high = torch.tensor(HAND_HIGH, device=dev) + hand_offset
@@ -178,18 +189,19 @@ class MetaWorldEnv(EnvBase):
             s.left_pad.copy_(s.sim.site_xpos[:, task.left_pad_site])
             s.right_pad.copy_(s.sim.site_xpos[:, task.right_pad_site])
             s.tcp.copy_(0.5 * (s.left_pad + s.right_pad))
+            task.refresh_objects(s)
 
     def _frames(self) -> torch.Tensor:
-        """``[N, 18]`` current frame ``[tcp, gripper_open, object_state]`` of every world."""
-        parts = [torch.cat([s.tcp, s.gripper_distance_apart[:, None], task.object_state(s)], dim=-1)
-                 for task, s in self.blocks]
+        """``[N, 18]`` current frame ``[tcp, gripper_open, objects]`` of every world."""
+        parts = [layout.frame(s.tcp, s.gripper_open, s.obj_pos, s.obj_quat, s.obj2_pos, s.obj2_quat)
+                 for _, s in self.blocks]
         return torch.cat(parts, dim=0)
 
     def _goals(self) -> torch.Tensor:
         return torch.cat([s.goal for _, s in self.blocks], dim=0)
 
     def _observation(self, frame: torch.Tensor, prev_frame: torch.Tensor) -> torch.Tensor:
-        return torch.cat([frame, prev_frame, self._goals(), self._one_hot], dim=-1)
+        return layout.compose(frame, prev_frame, self._goals(), self._one_hot)
 
     # A reset of the worlds in ``mask``: stage the robot reset (torch) -> launch the keyframe reset (Warp) ->
     # place objects and goals (torch) -> launch kinematics (Warp) -> record the reset state (torch).
@@ -234,13 +246,14 @@ class MetaWorldEnv(EnvBase):
             mocap.copy_(torch.maximum(torch.minimum(target, self._mocap_high), self._mocap_low))
             s.sim.ctrl[:, 0] = -a[:, 3]  # tendon force: positive opens the fingers; action +1 closes
 
-    def _evaluate(self, action: torch.Tensor, frame: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        obs = self._observation(frame, self._prev_frame)
+    def _evaluate(self, action: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Reward and success of every world from the blocks' named state (refreshed after the physics)."""
         rewards, successes = [], []
-        for (task, s), sl in zip(self.blocks, self.slices):
-            dense, success = task.evaluate(s, action[sl], obs[sl])
-            scaled = dense * task.dense_scale * self.reward_scale
-            rewards.append(torch.where(success, torch.full_like(scaled, task.success_bonus), scaled))
+        for (task, s), dense_reward, sl in zip(self.blocks, self._dense_rewards, self.slices):
+            a = action[sl]
+            scaled = dense_reward(s, a) * (task.dense_scale * self.reward_scale)
+            success = task.success(s, a)
+            rewards.append(torch.where(success, task.success_reward(s, a), scaled))
             successes.append(success)
         return torch.cat(rewards), torch.cat(successes)
 
@@ -255,7 +268,7 @@ class MetaWorldEnv(EnvBase):
         """After physics: observation, reward, success, statistics, which worlds are done; stage their reset."""
         self._refresh_kinematic_quantities()
         frame = self._frames()
-        reward, success = self._evaluate(self._action, frame)
+        reward, success = self._evaluate(self._action)
         unhealthy = torch.cat([sim.unhealthy() for sim in self._sims])
         reward = torch.where(torch.isfinite(reward) & ~unhealthy, reward, torch.zeros_like(reward))
         self._step_count += 1
@@ -360,6 +373,7 @@ class MetaWorldEnv(EnvBase):
     _EPISODE_STATE = ("_step_count", "_ep_return", "_ep_success", "_ep_counted", "_prev_frame", "_vec_sampled",
                       "_stats")
     _TASK_STATE = ("goal", "obj_init_pos", "init_tcp", "init_left_pad", "init_right_pad")
+    # reward_version is recorded with the state: resuming across versions is refused
 
     def get_extra_state(self) -> dict:
         """Everything needed to continue the exact same trajectories: episode bookkeeping, the reset sampler's
@@ -369,12 +383,13 @@ class MetaWorldEnv(EnvBase):
             blocks.append({
                 "sim": s.sim.get_state(),
                 "task": {k: getattr(s, k).clone() for k in self._TASK_STATE},
-                "extra": {k: v.clone() for k, v in s.extra.items()},
+                "buffers": {k: v.clone() for k, v in s.buffers.items()},
                 "reset_vec": self._reset_vec[b].clone(),
             })
         return {
             "task_names": list(self.task_names),
             "task_counts": list(self.task_counts),
+            "reward_version": self.reward_version,
             "episode": {k: getattr(self, k).clone() for k in self._EPISODE_STATE},
             "generator": self._generator.get_state(),
             "blocks": blocks,
@@ -386,6 +401,10 @@ class MetaWorldEnv(EnvBase):
                 f"env state is for tasks {state['task_names']} x {state['task_counts']}, this env has "
                 f"{self.task_names} x {self.task_counts}"
             )
+        saved_version = state.get("reward_version", "paper")
+        if saved_version != self.reward_version:
+            raise RuntimeError(f"env state was saved with reward_version={saved_version!r}, this env uses "
+                               f"{self.reward_version!r}; a run cannot continue across reward versions")
         for k, v in state["episode"].items():
             getattr(self, k).copy_(v)
         self._generator.set_state(state["generator"].cpu() if self.device.type == "cpu" else state["generator"])
@@ -393,8 +412,8 @@ class MetaWorldEnv(EnvBase):
             s.sim.set_state(saved["sim"])
             for k, v in saved["task"].items():
                 getattr(s, k).copy_(v)
-            for k, v in saved["extra"].items():
-                s.extra[k].copy_(v)
+            for k, v in saved["buffers"].items():
+                s.buffers[k].copy_(v)
             self._reset_vec[b].copy_(saved["reset_vec"])
         self._refresh_kinematic_quantities()
 

@@ -1,10 +1,17 @@
-"""What a Meta-World task is in mtbench: a scene, reset ranges, an observation of its objects, a reward and a
-success rule, all over batched torch tensors of one block of worlds (one compiled model per task)."""
+"""What a Meta-World task is in mtbench, and the named state its reward and success are functions of.
+
+A task file under ``tasks/`` holds everything about one task: its scene (``scene``, ``edit_spec``), reset ranges
+(``reset_low``/``reset_high``, ``reset``), the objects it reports in the observation (``objects``), its text
+description (CARE's context), and its reward and success as pure functions of the named state in
+:class:`TaskState` (object poses, TCP, finger pads, goal, initial positions, action), never of observation indices.
+The env discovers the task files, runs one compiled model per task, and assembles observations with
+:mod:`.observation`.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Callable, ClassVar, NamedTuple
 
 import mujoco
 import torch
@@ -18,18 +25,28 @@ from .scene import SceneSpec
 HAND_LOW = (-0.525, 0.348, 0.0)
 HAND_HIGH = (0.525, 1.025, 0.7)
 
+# ``paper``: the paper-era MTBench rewards (reproduces the paper's tables); ``v2``: mtbench's redesigned rewards for
+# the tasks whose paper-era reward leaves MT-PPO at ~0% success (the others are identical in both versions).
+REWARD_VERSIONS: tuple[str, ...] = ("paper", "v2")
+
+Reward = Callable[["TaskState", torch.Tensor], torch.Tensor]
+
 
 @dataclass
 class TaskState:
-    """Per-world buffers of one task block. Sizes are ``n`` = number of worlds of the block.
+    """Per-world state of one task block (``n`` worlds), read by the task's reward and success functions.
 
-    The env refreshes ``tcp``, ``left_pad``, ``right_pad`` after every physics step; tasks read them (and the
-    simulator views in ``sim``) to build object observations, rewards and success.
+    The env refreshes ``tcp``, ``left_pad``, ``right_pad`` and the object poses (``obj_pos``, ``obj_quat``,
+    ``obj2_pos``, ``obj2_quat``, from :meth:`MetaWorldTask.objects`) after every physics step and after resets;
+    ``goal`` and ``obj_init_pos`` are written by the task's ``reset``; ``init_tcp`` and the ``init_*_pad`` positions
+    are recorded after each reset. ``buffers`` holds the per-world tensors a task declares in
+    :attr:`MetaWorldTask.buffers`. ``sim`` gives the raw simulator views (joint positions, sites, bodies).
     """
 
     sim: WarpSim
     n: int
     device: torch.device
+    buffer_shapes: dict[str, tuple[int, ...]] = field(default_factory=dict)
     goal: torch.Tensor = field(init=False)
     obj_init_pos: torch.Tensor = field(init=False)
     init_tcp: torch.Tensor = field(init=False)
@@ -38,30 +55,59 @@ class TaskState:
     tcp: torch.Tensor = field(init=False)
     left_pad: torch.Tensor = field(init=False)
     right_pad: torch.Tensor = field(init=False)
-    extra: dict[str, torch.Tensor] = field(default_factory=dict)
+    obj_pos: torch.Tensor = field(init=False)
+    obj_quat: torch.Tensor = field(init=False)
+    obj2_pos: torch.Tensor = field(init=False)
+    obj2_quat: torch.Tensor = field(init=False)
+    buffers: dict[str, torch.Tensor] = field(init=False)
+
+    POINTS: ClassVar[tuple[str, ...]] = ("goal", "obj_init_pos", "init_tcp", "init_left_pad", "init_right_pad", "tcp",
+                                         "left_pad", "right_pad", "obj_pos", "obj2_pos")
 
     def __post_init__(self) -> None:
-        z = lambda: torch.zeros(self.n, 3, device=self.device)  # noqa: E731
-        self.goal, self.obj_init_pos, self.init_tcp = z(), z(), z()
-        self.init_left_pad, self.init_right_pad = z(), z()
-        self.tcp, self.left_pad, self.right_pad = z(), z(), z()
+        for name in self.POINTS:
+            setattr(self, name, torch.zeros(self.n, 3, device=self.device))
+        self.obj_quat = torch.zeros(self.n, 4, device=self.device)
+        self.obj2_quat = torch.zeros(self.n, 4, device=self.device)
+        self.buffers = {k: torch.zeros(self.n, *shape, device=self.device) for k, shape in self.buffer_shapes.items()}
 
     @property
-    def gripper_distance_apart(self) -> torch.Tensor:
-        """Meta-World's ``obs[3]``: pad distance / 0.1 clipped to [0, 1] (1 = open)."""
+    def gripper_open(self) -> torch.Tensor:
+        """Meta-World's ``obs[3]``: pad distance / 0.1 clipped to [0, 1] (1 = open), ``[n]``."""
         return ((self.right_pad - self.left_pad).norm(dim=-1) / 0.1).clamp(0.0, 1.0)
+
+    # name kept for the reward helpers' Meta-World vocabulary
+    gripper_distance_apart = gripper_open
+
+
+class Objects(NamedTuple):
+    """The objects a task reports in the observation: positions ``[n, 3]`` and wxyz quaternions ``[n, 4]``
+    (``None``: reported as zeros, e.g. a handle point without orientation or no second object)."""
+
+    pos: torch.Tensor
+    quat: torch.Tensor | None = None
+    pos2: torch.Tensor | None = None
+    quat2: torch.Tensor | None = None
 
 
 class MetaWorldTask:
-    """Base class of a Meta-World task definition. Subclasses set the class attributes and implement
-    :meth:`reset`, :meth:`object_state` and :meth:`evaluate`."""
+    """Base class of a Meta-World task definition (one file per task under ``tasks/``).
+
+    Subclasses set the class attributes and implement :meth:`reset`, :meth:`objects`, :meth:`reward` and
+    :meth:`success`; the reward and success methods only gather named state and call the task file's pure
+    functions of tensors (which the tests evaluate without physics).
+    """
 
     name: ClassVar[str]
+    mtbench_id: ClassVar[int]  # index in MTBench's TASK_IDX_TO_NAME: fixes the MT50 order and one-hot slots
+    description: ClassVar[str]  # one sentence, embedded by CARE as the task's context
     scene: ClassVar[SceneSpec]
     # reset space: uniform sampling between low and high (object part then goal part)
     reset_low: ClassVar[tuple[float, ...]]
     reset_high: ClassVar[tuple[float, ...]]
-    # dense Meta-World reward is multiplied by this (the paper-era MTBench shaping factor) before reward_scale
+    # per-world task buffers (name -> per-world shape), allocated in TaskState.buffers and checkpointed
+    buffers: ClassVar[dict[str, tuple[int, ...]]] = {}
+    # the dense reward is multiplied by this (the paper-era MTBench shaping factor) before reward_scale
     dense_scale: ClassVar[float] = 0.01
     success_bonus: ClassVar[float] = 10.0
 
@@ -80,10 +126,14 @@ class MetaWorldTask:
         self._reset_high = torch.tensor(self.reset_high, dtype=torch.float32, device=self.device)
         self.bind(model)
 
+    def new_state(self, sim: WarpSim, n: int) -> TaskState:
+        """The per-world state of a block of ``n`` worlds of this task (with the task's buffers)."""
+        return TaskState(sim=sim, n=n, device=self.device, buffer_shapes=dict(self.buffers))
+
     # ------------------------------------------------------------------ helpers for subclasses
     def bind(self, model: mujoco.MjModel) -> None:
         """Resolve model ids (bodies, sites, joints) the task uses and create its constant tensors on
-        ``self.device`` (never create tensors from Python data in ``reset``/``evaluate``/``object_state``)."""
+        ``self.device`` (never create tensors from Python data in ``reset``/``reward``/``success``/``objects``)."""
 
     def const(self, values) -> torch.Tensor:
         """A float32 constant tensor on the task's device (for use in ``bind``)."""
@@ -108,7 +158,7 @@ class MetaWorldTask:
                       quat: torch.Tensor | None = None) -> None:
         """Place a free-joint body at ``pos`` (and ``quat``, wxyz) in the worlds of ``mask``; zero its velocity."""
         q = sim.qpos[:, qposadr:qposadr + 7]
-        new = torch.cat([pos, quat if quat is not None else _unit_quat(pos)], dim=-1)
+        new = torch.cat([pos, quat if quat is not None else unit_quat(pos)], dim=-1)
         q.copy_(torch.where(mask[:, None], new, q))
 
     @staticmethod
@@ -116,27 +166,72 @@ class MetaWorldTask:
         """Move a world-fixed body, e.g. a drawer cabinet, per world (its fixed geoms move with it)."""
         sim.set_body_pos(body, pos, mask)
 
+    @staticmethod
+    def set_joint(sim: WarpSim, qposadr: int, value: float | torch.Tensor, mask: torch.Tensor) -> None:
+        """Set a 1-dof joint position in the worlds of ``mask`` (its velocity is zero after the robot reset)."""
+        q = sim.qpos[:, qposadr]
+        q.copy_(torch.where(mask, value, q))
+
+    @staticmethod
+    def masked_set(dst: torch.Tensor, value: torch.Tensor, mask: torch.Tensor) -> None:
+        """``dst[mask] = value[mask]`` for per-world tensors ``[n, ...]``, without indexing (graph friendly)."""
+        m = mask.reshape(mask.shape + (1,) * (dst.dim() - 1))
+        dst.copy_(torch.where(m, value, dst))
+
+    def body_pose(self, s: TaskState, body: int) -> tuple[torch.Tensor, torch.Tensor]:
+        """World position and wxyz orientation of a body ``([n, 3], [n, 4])``."""
+        return s.sim.xpos[:, body], s.sim.xquat[:, body]
+
     # ------------------------------------------------------------------ task interface
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         """Write the initial object state for the worlds in ``mask`` from reset vectors ``vec`` and set
         ``s.goal`` / ``s.obj_init_pos`` (and task buffers) there. Called after the robot was reset."""
-        raise NotImplementedError
+        raise NotImplementedError(f"task {self.name!r} does not define reset()")
 
     def after_reset(self, s: TaskState, mask: torch.Tensor) -> None:
-        """Record quantities measured in the reset state (kinematics are fresh here)."""
+        """Record quantities measured in the reset state (kinematics and object poses are fresh here)."""
 
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        """``[n, 14]``: object 1 position + quaternion (wxyz), object 2 position + quaternion (zeros if none)."""
-        raise NotImplementedError
+    def objects(self, s: TaskState) -> Objects:
+        """The poses of the objects this task reports in the observation."""
+        raise NotImplementedError(f"task {self.name!r} does not define objects()")
 
-    def evaluate(self, s: TaskState, action: torch.Tensor, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Return the dense Meta-World v2 reward ``[n]`` (its own scale, before ``dense_scale``) and success
-        ``[n]`` bool (the paper-era MTBench success rule)."""
-        raise NotImplementedError
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        """The paper-era dense reward ``[n]`` on the task's own scale (the env multiplies it by ``dense_scale``
+        and ``reward_scale``)."""
+        raise NotImplementedError(f"task {self.name!r} does not define reward()")
 
-    # ------------------------------------------------------------------ common observation pieces
-    def body_pose(self, s: TaskState, body: int) -> torch.Tensor:
-        return torch.cat([s.sim.xpos[:, body], s.sim.xquat[:, body]], dim=-1)
+    def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        """The ``reward_version="v2"`` dense reward; the paper-era reward unless the task redefines it."""
+        return self.reward(s, action)
+
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        """The paper-era MTBench success rule ``[n]`` bool (the same in every reward version)."""
+        raise NotImplementedError(f"task {self.name!r} does not define success()")
+
+    def success_reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        """The reward ``[n]`` paid on steps where :meth:`success` holds (not scaled by ``reward_scale``): the
+        constant ``success_bonus`` (MTBench: 10, or 20 for a few tasks)."""
+        return s.tcp.new_full((s.n,), self.success_bonus)
+
+    def dense_reward(self, version: str) -> Reward:
+        """The dense-reward function of a reward version (``REWARD_VERSIONS``)."""
+        if version not in REWARD_VERSIONS:
+            raise ValueError(f"unknown reward_version {version!r}; valid choices: {list(REWARD_VERSIONS)}")
+        return self.reward if version == "paper" else self.reward_v2
+
+    @classmethod
+    def has_v2_reward(cls) -> bool:
+        """True if the task redefines its reward in ``reward_version="v2"``."""
+        return cls.reward_v2 is not MetaWorldTask.reward_v2
+
+    # ------------------------------------------------------------------ used by the env
+    def refresh_objects(self, s: TaskState) -> None:
+        """Copy the current :meth:`objects` into ``s.obj_pos``/``obj_quat``/``obj2_pos``/``obj2_quat``."""
+        objs = self.objects(s)
+        s.obj_pos.copy_(objs.pos)
+        for dst, value in ((s.obj_quat, objs.quat), (s.obj2_pos, objs.pos2), (s.obj2_quat, objs.quat2)):
+            if value is not None:
+                dst.copy_(value)
 
 
 class FreeObjectTask(MetaWorldTask):
@@ -145,10 +240,12 @@ class FreeObjectTask(MetaWorldTask):
     Meta-World does (a fixed number of rounds: no data-dependent loop)."""
 
     MIN_GOAL_DIST: ClassVar[float] = 0.15
+    OBJ_BODY: ClassVar[str] = "obj"
+    OBJ_JOINT: ClassVar[str] = "objjoint"
 
     def bind(self, model: mujoco.MjModel) -> None:
-        self.obj_qpos = self.joint_qposadr("objjoint")
-        self.obj_body = self.body_id("obj")
+        self.obj_qpos = self.joint_qposadr(self.OBJ_JOINT)
+        self.obj_body = self.body_id(self.OBJ_BODY)
 
     def sample(self, n: int, generator: torch.Generator, device: torch.device) -> torch.Tensor:
         vec = super().sample(n, generator, device)
@@ -160,24 +257,26 @@ class FreeObjectTask(MetaWorldTask):
     def place(self, s: TaskState, obj: torch.Tensor, goal: torch.Tensor, mask: torch.Tensor) -> None:
         """Put the object at ``obj`` and the goal at ``goal`` in the worlds of ``mask``."""
         self.set_free_body(s.sim, self.obj_qpos, obj, mask)
-        s.obj_init_pos.copy_(torch.where(mask[:, None], obj, s.obj_init_pos))
-        s.goal.copy_(torch.where(mask[:, None], goal, s.goal))
+        self.masked_set(s.obj_init_pos, obj, mask)
+        self.masked_set(s.goal, goal, mask)
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         self.place(s, vec[:, :3], vec[:, 3:6], mask)
 
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        return pad_object_state(self.body_pose(s, self.obj_body))
+    def objects(self, s: TaskState) -> Objects:
+        return Objects(*self.body_pose(s, self.obj_body))
 
 
-def _unit_quat(like: torch.Tensor) -> torch.Tensor:
+def unit_quat(like: torch.Tensor) -> torch.Tensor:
     """Identity quaternions (wxyz) ``[..., 4]`` (built without writing a Python number into a tensor, which
     would be a host-to-device copy inside a CUDA graph capture)."""
     return torch.nn.functional.pad(like.new_ones(*like.shape[:-1], 1), (0, 3))
 
 
-def pad_object_state(first: torch.Tensor, second: torch.Tensor | None = None) -> torch.Tensor:
-    """Concatenate one or two 7-d poses into Meta-World's 14-d padded object state."""
-    if second is None:
-        second = torch.zeros_like(first)
-    return torch.cat([first, second], dim=-1)
+def offset(x: torch.Tensor, dx: float, dy: float, dz: float) -> torch.Tensor:
+    """``x + (dx, dy, dz)`` for points ``[..., 3]`` with the constant as Python floats (no host-to-device copy)."""
+    return torch.stack([x[..., 0] + dx, x[..., 1] + dy, x[..., 2] + dz], dim=-1)
+
+
+__all__ = ["HAND_HIGH", "HAND_LOW", "REWARD_VERSIONS", "FreeObjectTask", "MetaWorldTask", "Objects", "TaskState",
+           "offset", "unit_quat"]

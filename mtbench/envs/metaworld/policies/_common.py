@@ -4,20 +4,10 @@ from __future__ import annotations
 
 import torch
 
+from ..observation import parse
 from ..robot import ACTION_SCALE
 
-
-def parse(obs: torch.Tensor) -> dict[str, torch.Tensor]:
-    """Split Meta-World's 39-d observation (extra trailing dims such as a one-hot are ignored)."""
-    return {
-        "hand": obs[..., 0:3],
-        "gripper": obs[..., 3],
-        "obj": obs[..., 4:7],
-        "obj_quat": obs[..., 7:11],
-        "obj2": obs[..., 11:14],
-        "obj2_quat": obs[..., 14:18],
-        "goal": obs[..., 36:39],
-    }
+__all__ = ["action", "move", "parse"]
 
 
 def move(hand: torch.Tensor, target: torch.Tensor, gain: float = 1.0) -> torch.Tensor:

@@ -20,7 +20,7 @@ PRESS_SPEED = 0.5  # slower descent while pressing: less overshoot of the weld-d
 
 def policy(obs: torch.Tensor) -> torch.Tensor:
     o = parse(obs)
-    hand, button, goal = o["hand"], o["obj"], o["goal"]
+    hand, button, goal = o["tcp"], o["obj_pos"], o["goal"]
     aligned = (hand[..., :2] - button[..., :2]).norm(dim=-1) <= ALIGNED
     z = torch.where(aligned, goal[..., 2] + PRESS_ABOVE_GOAL, button[..., 2] + HOVER)
     target = torch.cat([button[..., :2], z[..., None]], dim=-1)

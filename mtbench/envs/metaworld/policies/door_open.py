@@ -82,7 +82,7 @@ def _approach(hand: torch.Tensor, xy: torch.Tensor, low_z: torch.Tensor | float,
 
 def policy(obs: torch.Tensor) -> torch.Tensor:
     o = parse(obs)
-    hand, handle, goal = o["hand"], o["obj"], o["goal"]
+    hand, handle, goal = o["tcp"], o["obj_pos"], o["goal"]
     hinge, theta = door_angle(handle, goal)
     handle_z = handle[..., 2]
 

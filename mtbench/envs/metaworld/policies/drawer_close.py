@@ -25,7 +25,7 @@ PUSH_SPEED = 0.8
 
 def policy(obs: torch.Tensor) -> torch.Tensor:
     o = parse(obs)
-    hand, handle, goal = o["hand"], o["obj"], o["goal"]
+    hand, handle, goal = o["tcp"], o["obj_pos"], o["goal"]
     bar = torch.stack([handle[:, 0] + HANDLE_TO_BAR[0], handle[:, 1] + HANDLE_TO_BAR[1],
                        handle[:, 2] + HANDLE_TO_BAR[2]], dim=-1)
     stage = torch.stack([bar[:, 0], bar[:, 1], bar[:, 2] + PUSH_HEIGHT], dim=-1)

@@ -33,7 +33,7 @@ OPEN_SHORT_OF_GOAL = 0.035
 
 def policy(obs: torch.Tensor) -> torch.Tensor:
     o = parse(obs)
-    hand, handle, goal = o["hand"], o["obj"], o["goal"]
+    hand, handle, goal = o["tcp"], o["obj_pos"], o["goal"]
     bar_y = handle[:, 1] + BAR_FROM_HANDLE
     contact_z = handle[:, 2] + BAR_RADIUS + FINGERTIP_BELOW_TCP
     press = torch.stack([handle[:, 0], bar_y - REAR_FINGER_OFFSET, contact_z - PRESS_DEPTH], dim=-1)

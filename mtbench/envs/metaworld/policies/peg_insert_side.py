@@ -18,8 +18,8 @@ LINE_UP_TOL = 0.006  # y/z error to the hole axis below which the peg moves in
 
 def policy(obs: torch.Tensor) -> torch.Tensor:
     o = parse(obs)
-    hand, prev, peg, goal = o["hand"], obs[..., 18:21], o["obj"], o["goal"]
-    target, close, held = grasp_phase(hand, shifted(peg, dz=-GRASP_ABOVE_CENTRE), o["gripper"], **GRASP)
+    hand, prev, peg, goal = o["tcp"], o["prev_tcp"], o["obj_pos"], o["goal"]
+    target, close, held = grasp_phase(hand, shifted(peg, dz=-GRASP_ABOVE_CENTRE), o["gripper_open"], **GRASP)
     # held: where the observed peg point must go for the head to reach the goal
     inserted = shifted(goal, *(-d for d in HEAD_FROM_GRASP))
     lined_up = ((peg[:, 1:] - inserted[:, 1:]).abs() < LINE_UP_TOL).all(dim=-1)

@@ -14,8 +14,8 @@ from ._grasp import PUCK_CARRY_SPEED, PUCK_GRASP, grasp_phase, move_lead
 
 def policy(obs: torch.Tensor) -> torch.Tensor:
     o = parse(obs)
-    hand, prev, obj, goal = o["hand"], obs[..., 18:21], o["obj"], o["goal"]
-    target, close, held = grasp_phase(hand, obj, o["gripper"], **PUCK_GRASP)
+    hand, prev, obj, goal = o["tcp"], o["prev_tcp"], o["obj_pos"], o["goal"]
+    target, close, held = grasp_phase(hand, obj, o["gripper_open"], **PUCK_GRASP)
     target = torch.where(held[:, None], hand + goal - obj, target)  # move the puck (not the hand) to the goal
     delta = move_lead(hand, prev, target, speed=torch.where(held, PUCK_CARRY_SPEED, 1.0))
     return action(delta, torch.where(close, 1.0, -1.0))

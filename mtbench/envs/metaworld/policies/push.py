@@ -16,8 +16,8 @@ CARRY_LIFT = 0.01  # carry height of the puck above its resting height
 
 def policy(obs: torch.Tensor) -> torch.Tensor:
     o = parse(obs)
-    hand, prev, obj, goal = o["hand"], obs[..., 18:21], o["obj"], o["goal"]
-    target, close, held = grasp_phase(hand, obj, o["gripper"], **PUCK_GRASP)
+    hand, prev, obj, goal = o["tcp"], o["prev_tcp"], o["obj_pos"], o["goal"]
+    target, close, held = grasp_phase(hand, obj, o["gripper_open"], **PUCK_GRASP)
     # held: move the puck (not the hand) onto the goal
     target = torch.where(held[:, None], hand + shifted(goal, dz=CARRY_LIFT) - obj, target)
     delta = move_lead(hand, prev, target, speed=torch.where(held, PUCK_CARRY_SPEED, 1.0))

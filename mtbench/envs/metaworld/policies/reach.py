@@ -9,4 +9,4 @@ from ._common import action, move, parse
 
 def policy(obs: torch.Tensor) -> torch.Tensor:
     o = parse(obs)
-    return action(move(o["hand"], o["goal"]), -1.0)
+    return action(move(o["tcp"], o["goal"]), -1.0)

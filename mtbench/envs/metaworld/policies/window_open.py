@@ -34,7 +34,7 @@ def push_sash(obs: torch.Tensor, direction: float, bar_from_handle: float, handl
     the observed handle site at the end of the travel minus the goal's x.
     """
     o = parse(obs)
-    hand, handle, goal = o["hand"], o["obj"], o["goal"]
+    hand, handle, goal = o["tcp"], o["obj_pos"], o["goal"]
     bar_x = handle[:, 0] + bar_from_handle
     stage = torch.stack([bar_x - direction * STAGE_BESIDE, handle[:, 1] - STAGE_IN_FRONT,
                          handle[:, 2] - STAGE_BELOW], dim=-1)

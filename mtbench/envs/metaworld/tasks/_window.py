@@ -7,8 +7,9 @@ held by two horizontal arms at z = ±0.045 that reach back to the sash. Meta-Wor
 the sites ``handleOpenStart`` (``window + (-0.04 + q, -0.095, 0)``, left of the bar) for window-open and
 ``handleCloseStart`` (``window + (0.01 + q, -0.095, 0)``, right of the bar) for window-close.
 
-Only plain functions, constants and a mixin live here (no ``MetaWorldTask`` subclass, so task discovery ignores
-the module); the reward/success functions are pure torch so that the tests can evaluate them without physics.
+This private module (task discovery ignores modules whose name starts with ``_``) holds the scene's constants, a
+mixin and the reward/success terms shared by the two window task files, which compose them with their own
+parameters; the terms are pure torch so that the tests can evaluate them without physics.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import torch
 
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec, guide_by_joint
-from ..task import TaskState, pad_object_state
+from ..task import Objects, TaskState
 
 # Meta-World's init_config hand_init_pos of both window tasks
 SCENE = SceneSpec("sawyer_window_horizontal.xml", hand_init_pos=(0.0, 0.4, 0.2))
@@ -31,7 +32,6 @@ TARGET_RADIUS = 0.05  # Meta-World's TARGET_RADIUS (in_place bound on the x erro
 HANDLE_RADIUS = 0.02  # Meta-World's handle_radius (reach bound)
 SUCCESS_RADIUS = 0.01  # paper-era MTBench ("changed from .05")
 
-OBJ_INIT_KEY = "window_handle_init"
 
 
 class WindowSceneMixin:
@@ -39,6 +39,7 @@ class WindowSceneMixin:
     subclass (listed first) that sets ``handle_site_name``."""
 
     handle_site_name: str
+    buffers = {"handle_init": (3,)}  # the handle point at the start of the episode
 
     @classmethod
     def edit_spec(cls, spec: mujoco.MjSpec) -> None:
@@ -56,25 +57,15 @@ class WindowSceneMixin:
     def place_window(self, s: TaskState, window: torch.Tensor, slide: float, mask: torch.Tensor) -> None:
         """Move the window frame to ``window`` ([n, 3]) and set the sash slide to ``slide`` in ``mask``'s worlds."""
         self.set_body_pos(s.sim, self.window_body, window, mask)  # moves the frame's fixed geoms too
-        q = s.sim.qpos[:, self.slide_qpos]
-        q.copy_(torch.where(mask, slide, q))
+        self.set_joint(s.sim, self.slide_qpos, slide, mask)
 
-    def handle_pos(self, s: TaskState) -> torch.Tensor:
-        return s.sim.site_xpos[:, self.handle_site]
-
-    def handle_init(self, s: TaskState) -> torch.Tensor:
-        if OBJ_INIT_KEY not in s.extra:
-            s.extra[OBJ_INIT_KEY] = torch.zeros(s.n, 3, device=s.device)
-        return s.extra[OBJ_INIT_KEY]
-
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        """The handle position as object 1 (no orientation: zeros), as Meta-World's window tasks report it."""
-        return pad_object_state(torch.cat([self.handle_pos(s), s.tcp.new_zeros(s.n, 4)], dim=-1))
+    def objects(self, s: TaskState) -> Objects:
+        """The handle point as object 1 (no orientation: zeros), as Meta-World's window tasks report it."""
+        return Objects(s.sim.site_xpos[:, self.handle_site])
 
     def after_reset(self, s: TaskState, mask: torch.Tensor) -> None:
         # the handle point at the start of the episode (kinematics are fresh here)
-        buf = self.handle_init(s)
-        buf.copy_(torch.where(mask[:, None], self.handle_pos(s), buf))
+        self.masked_set(s.buffers["handle_init"], s.obj_pos, mask)
 
 
 def window_reward(tcp: torch.Tensor, handle: torch.Tensor, goal: torch.Tensor, handle_init: torch.Tensor,

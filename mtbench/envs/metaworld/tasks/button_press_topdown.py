@@ -47,7 +47,7 @@ import torch
 
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec, guide_by_joint
-from ..task import MetaWorldTask, TaskState, pad_object_state
+from ..task import MetaWorldTask, Objects, TaskState
 
 
 def button_press_topdown_reward(
@@ -71,7 +71,11 @@ def button_press_topdown_success(obj_z: torch.Tensor, obj_init_z: torch.Tensor) 
 
 
 class ButtonPressTopdown(MetaWorldTask):
+    """Press the button down through its travel (see the module docstring)."""
+
     name = "button_press_topdown"
+    mtbench_id = 4
+    description = "Press a button downward from above."
     scene = SceneSpec("sawyer_button_press_topdown.xml", hand_init_pos=(0.0, 0.4, 0.2))
     # box position x, y, z (Meta-World obj_low/obj_high); the goal (hole site) follows from it
     reset_low = (-0.1, 0.8, 0.115)
@@ -79,6 +83,7 @@ class ButtonPressTopdown(MetaWorldTask):
     OBS_Z_OFFSET = 0.193  # Meta-World: button body position + (0, 0, 0.193)
     TRAVEL = 0.06  # joint range of btnbox_joint (MTBench target = start - 0.06)
     SUCCESS_TOL = 0.01  # MTBench; Meta-World: 0.024 to the hole site (see module docstring)
+    buffers = {"obj_to_target_init": (), "button_init": (3,)}
 
     # The 10 g button's joint limit is a mass-scaled soft constraint, roughly a 30 N/m spring, so the arm can
     # shove the button 2-3 cm past the end of its travel or pull it far above its rest position once the fingers
@@ -101,33 +106,25 @@ class ButtonPressTopdown(MetaWorldTask):
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         self.set_body_pos(s.sim, self.box_body, vec[:, :3], mask)
-        q = s.sim.qpos[:, self.button_qpos]
-        q.copy_(torch.where(mask, torch.zeros_like(q), q))
-        s.obj_init_pos.copy_(torch.where(mask[:, None], vec[:, :3], s.obj_init_pos))
-        if "obj_to_target_init" not in s.extra:
-            s.extra["obj_to_target_init"] = torch.ones(s.n, device=s.device)
-            s.extra["button_init"] = torch.zeros(s.n, 3, device=s.device)
+        self.set_joint(s.sim, self.button_qpos, 0.0, mask)
+        self.masked_set(s.obj_init_pos, vec[:, :3], mask)
 
     def after_reset(self, s: TaskState, mask: torch.Tensor) -> None:
         # Meta-World: target = hole site after mj_forward; margin = |target_z - buttonStart_z|
         hole = s.sim.site_xpos[:, self.hole_site]
         start = s.sim.site_xpos[:, self.start_site]
-        s.goal.copy_(torch.where(mask[:, None], hole, s.goal))
-        o2t = (hole[:, 2] - start[:, 2]).abs()
-        s.extra["obj_to_target_init"].copy_(torch.where(mask, o2t, s.extra["obj_to_target_init"]))
-        button = self._button_pos(s)
-        s.extra["button_init"].copy_(torch.where(mask[:, None], button, s.extra["button_init"]))
+        self.masked_set(s.goal, hole, mask)
+        self.masked_set(s.buffers["obj_to_target_init"], (hole[:, 2] - start[:, 2]).abs(), mask)
+        self.masked_set(s.buffers["button_init"], s.obj_pos, mask)
 
-    def _button_pos(self, s: TaskState) -> torch.Tensor:
-        pos = s.sim.xpos[:, self.button_body].clone()
-        pos[:, 2] += self.OBS_Z_OFFSET
-        return pos
+    def objects(self, s: TaskState) -> Objects:
+        pos = s.sim.xpos[:, self.button_body]
+        top = torch.stack([pos[:, 0], pos[:, 1], pos[:, 2] + self.OBS_Z_OFFSET], dim=-1)
+        return Objects(top, s.sim.xquat[:, self.button_body])
 
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        return pad_object_state(torch.cat([self._button_pos(s), s.sim.xquat[:, self.button_body]], dim=-1))
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return button_press_topdown_reward(s.tcp, s.init_tcp, s.obj_pos, s.goal[:, 2],
+                                           s.buffers["obj_to_target_init"], s.gripper_open)
 
-    def evaluate(self, s, action, obs):
-        obj = self._button_pos(s)
-        dense = button_press_topdown_reward(s.tcp, s.init_tcp, obj, s.goal[:, 2], s.extra["obj_to_target_init"],
-                                            s.gripper_distance_apart)
-        return dense, button_press_topdown_success(obj[:, 2], s.extra["button_init"][:, 2])
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return button_press_topdown_success(s.obj_pos[:, 2], s.buffers["button_init"][:, 2])

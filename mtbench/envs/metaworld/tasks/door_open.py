@@ -49,12 +49,7 @@ import torch
 
 from ..reward_utils import above_floor_funnel, hamacher_product, tolerance
 from ..scene import SceneSpec, guide_by_joint
-from ..task import MetaWorldTask, TaskState, pad_object_state
-
-
-def offset(x: torch.Tensor, dx: float, dy: float, dz: float) -> torch.Tensor:
-    """``x + (dx, dy, dz)`` for points ``[..., 3]`` without building a device tensor from host data."""
-    return torch.stack([x[..., 0] + dx, x[..., 1] + dy, x[..., 2] + dz], dim=-1)
+from ..task import MetaWorldTask, Objects, TaskState, offset
 
 
 def quat_mul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
@@ -100,7 +95,11 @@ def door_open_success(handle: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
 
 
 class DoorOpen(MetaWorldTask):
+    """Swing the safe door open by about 90 degrees (see the module docstring)."""
+
     name = "door_open"
+    mtbench_id = 16
+    description = "Grab the door handle and swing the door open on its hinges."
     scene = SceneSpec("sawyer_door_pull.xml", hand_init_pos=(0.0, 0.6, 0.2))
     # safe (door body) position x, y, z (Meta-World obj_low/obj_high); the goal follows from it
     reset_low = (0.0, 0.85, 0.15)
@@ -126,11 +125,9 @@ class DoorOpen(MetaWorldTask):
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         self.set_body_pos(s.sim, self.door_body, vec[:, :3], mask)
-        q = s.sim.qpos[:, self.door_qpos]
-        q.copy_(torch.where(mask, torch.zeros_like(q), q))
-        s.obj_init_pos.copy_(torch.where(mask[:, None], vec[:, :3], s.obj_init_pos))
-        goal = offset(vec[:, :3], *self.GOAL_OFFSET)
-        s.goal.copy_(torch.where(mask[:, None], goal, s.goal))
+        self.set_joint(s.sim, self.door_qpos, 0.0, mask)
+        self.masked_set(s.obj_init_pos, vec[:, :3], mask)
+        self.masked_set(s.goal, offset(vec[:, :3], *self.GOAL_OFFSET), mask)
 
     def handle_pose(self, s: TaskState) -> tuple[torch.Tensor, torch.Tensor]:
         """World position and wxyz quaternion of the handle geom ``[n, 3], [n, 4]``."""
@@ -141,12 +138,11 @@ class DoorOpen(MetaWorldTask):
         quat = quat_mul(link_quat, local[3:].expand_as(link_quat))
         return pos, quat
 
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        pos, quat = self.handle_pose(s)
-        return pad_object_state(torch.cat([pos, quat], dim=-1))
+    def objects(self, s: TaskState) -> Objects:
+        return Objects(*self.handle_pose(s))
 
-    def evaluate(self, s, action, obs):
-        handle, _ = self.handle_pose(s)
-        theta = s.sim.qpos[:, self.door_qpos]
-        dense = door_open_reward(s.tcp, handle, theta, action[:, 3])
-        return dense, door_open_success(handle, s.goal)
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return door_open_reward(s.tcp, s.obj_pos, s.sim.qpos[:, self.door_qpos], action[:, 3])
+
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return door_open_success(s.obj_pos, s.goal)

@@ -4,19 +4,44 @@ from __future__ import annotations
 
 import torch
 
-from ..task import MetaWorldTask, TaskState, pad_object_state
-from ._drawer import (
-    CLOSE_GOAL_OFFSET,
-    CLOSE_HANDLE_OFFSET,
-    CLOSE_MAX_DIST,
-    RESET_HIGH,
-    RESET_LOW,
-    SCENE,
-    DrawerSceneMixin,
-    shift,
-    drawer_close_reward,
-    drawer_close_success,
-)
+from ..reward_utils import hamacher_product, tolerance
+from ..task import MetaWorldTask, Objects, TaskState, offset
+from ._drawer import RESET_HIGH, RESET_LOW, SCENE, DrawerSceneMixin
+
+MAX_DIST = 0.15  # Meta-World v3 starts the drawer pulled out by 15 cm
+HANDLE_OFFSET = (0.0, -0.16, 0.05)  # observed handle point relative to drawer_link (Meta-World)
+GOAL_OFFSET = (0.0, -0.16, 0.09)  # goal relative to the cabinet (Meta-World)
+# Meta-World's compute_reward reads self.TARGET_RADIUS, i.e. SawyerXYZEnv's 0.05; the class attribute
+# _TARGET_RADIUS = 0.04 of SawyerDrawerCloseEnvV3 is never used
+TARGET_RADIUS = 0.05
+HANDLE_REACH_RADIUS = 0.005
+# MTBench success target: the closed handle point = cabinet + (0, -0.17, 0.14) = goal + (0, -0.01, 0.05)
+SUCCESS_FROM_GOAL = (0.0, -0.01, 0.05)
+SUCCESS_RADIUS = 0.055
+
+
+def drawer_close_reward(tcp: torch.Tensor, handle: torch.Tensor, goal: torch.Tensor, handle_init: torch.Tensor,
+                        init_tcp: torch.Tensor, grip_action: torch.Tensor
+                        ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Meta-World v2 ``SawyerDrawerCloseEnvV3.compute_reward`` without its success override (``reward = 1``
+    when ``‖handle − target‖ ≤ 0.065``). Returns ``(10 · H(H(reach, closed), in_place), reach, in_place)``."""
+    target_to_obj = (handle - goal).norm(dim=-1)
+    target_to_obj_init = (handle_init - goal).norm(dim=-1)
+    in_place = tolerance(target_to_obj, bounds=(0.0, TARGET_RADIUS),
+                         margin=(target_to_obj_init - TARGET_RADIUS).abs(), sigmoid="long_tail")
+    tcp_to_obj = (handle - tcp).norm(dim=-1)
+    tcp_to_obj_init = (handle_init - init_tcp).norm(dim=-1)
+    reach = tolerance(tcp_to_obj, bounds=(0.0, HANDLE_REACH_RADIUS),
+                      margin=(tcp_to_obj_init - HANDLE_REACH_RADIUS).abs(), sigmoid="gaussian")
+    gripper_closed = grip_action.clamp(0.0, 1.0)
+    reach = hamacher_product(reach, gripper_closed)
+    return 10.0 * hamacher_product(reach, in_place), reach, in_place
+
+
+def drawer_close_success(handle: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
+    """MTBench: ``‖handle − closed handle‖ ≤ 0.055`` (see :class:`..drawer_close.DrawerClose`)."""
+    target = offset(goal, *SUCCESS_FROM_GOAL)
+    return (handle - target).norm(dim=-1) <= SUCCESS_RADIUS
 
 
 class DrawerClose(DrawerSceneMixin, MetaWorldTask):
@@ -42,28 +67,26 @@ class DrawerClose(DrawerSceneMixin, MetaWorldTask):
     """
 
     name = "drawer_close"
+    mtbench_id = 17
+    description = "Push an open drawer back into its cabinet."
     scene = SCENE
     reset_low = RESET_LOW
     reset_high = RESET_HIGH
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         cabinet = vec[:, :3]
-        self.place_drawer(s, cabinet, -CLOSE_MAX_DIST, mask)
-        goal = shift(cabinet, CLOSE_GOAL_OFFSET)
-        s.goal.copy_(torch.where(mask[:, None], goal, s.goal))
+        self.place_drawer(s, cabinet, -MAX_DIST, mask)
+        self.masked_set(s.goal, offset(cabinet, *GOAL_OFFSET), mask)
 
     def after_reset(self, s: TaskState, mask: torch.Tensor) -> None:
         # Meta-World: obj_init_pos = the handle point after the drawer was pulled out
-        s.obj_init_pos.copy_(torch.where(mask[:, None], self.handle_pos(s), s.obj_init_pos))
+        self.masked_set(s.obj_init_pos, s.obj_pos, mask)
 
-    def handle_pos(self, s: TaskState) -> torch.Tensor:
-        return shift(self.drawer_link_pos(s), CLOSE_HANDLE_OFFSET)
+    def objects(self, s: TaskState) -> Objects:
+        return Objects(self.handle_point(s, HANDLE_OFFSET))
 
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        pose = torch.cat([self.handle_pos(s), s.tcp.new_zeros(s.n, 4)], dim=-1)
-        return pad_object_state(pose)
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return drawer_close_reward(s.tcp, s.obj_pos, s.goal, s.obj_init_pos, s.init_tcp, action[:, 3])[0]
 
-    def evaluate(self, s, action, obs):
-        handle = self.handle_pos(s)
-        dense, _, _ = drawer_close_reward(s.tcp, handle, s.goal, s.obj_init_pos, s.init_tcp, action[:, 3])
-        return dense, drawer_close_success(handle, s.goal)
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return drawer_close_success(s.obj_pos, s.goal)

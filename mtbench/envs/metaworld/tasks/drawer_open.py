@@ -4,18 +4,44 @@ from __future__ import annotations
 
 import torch
 
-from ..task import MetaWorldTask, TaskState, pad_object_state
-from ._drawer import (
-    OPEN_GOAL_OFFSET,
-    OPEN_HANDLE_OFFSET,
-    RESET_HIGH,
-    RESET_LOW,
-    SCENE,
-    DrawerSceneMixin,
-    shift,
-    drawer_open_reward,
-    drawer_open_success,
-)
+from ..reward_utils import tolerance
+from ..task import MetaWorldTask, Objects, TaskState, offset
+from ._drawer import RESET_HIGH, RESET_LOW, SCENE, SLIDE_TRAVEL, DrawerSceneMixin
+
+MAX_DIST = 0.2  # Meta-World's maxDist: the goal is 20 cm in front of the closed handle
+HANDLE_OFFSET = (0.0, -0.16, 0.0)  # observed handle point relative to drawer_link (Meta-World)
+GOAL_OFFSET = (0.0, -0.16 - MAX_DIST, 0.09)  # goal relative to the cabinet (Meta-World)
+CAGE_SCALE = (3.0, 3.0, 1.0)
+# MTBench success target: the fully open handle (closed handle + 16 cm pull) = goal + (0, 0.2 - 0.16 - 0.01, 0)
+SUCCESS_FROM_GOAL = (0.0, MAX_DIST - SLIDE_TRAVEL - 0.01, 0.0)
+SUCCESS_RADIUS = 0.035
+
+
+def drawer_open_reward(tcp: torch.Tensor, handle: torch.Tensor, goal: torch.Tensor,
+                       init_tcp: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Meta-World v2 ``SawyerDrawerOpenEnvV3.compute_reward`` *without* its final ``* 5``.
+
+    Returns ``(caging + opening, caging, opening)``, each ``[n]``; the first lies in [0, 2].
+    """
+    handle_error = (handle - goal).norm(dim=-1)
+    opening = tolerance(handle_error, bounds=(0.0, 0.02), margin=MAX_DIST, sigmoid="long_tail")
+    # Meta-World's handle_pos_init = target + (0, maxDist, 0) (1 cm behind the observed closed-handle point)
+    handle_init = offset(goal, *(0.0, MAX_DIST, 0.0))
+    gripper_error = scaled_norm(handle - tcp, CAGE_SCALE)
+    gripper_error_init = scaled_norm(handle_init - init_tcp, CAGE_SCALE)
+    caging = tolerance(gripper_error, bounds=(0.0, 0.01), margin=gripper_error_init, sigmoid="long_tail")
+    return caging + opening, caging, opening
+
+
+def drawer_open_success(handle: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
+    """MTBench: ``‖handle − fully-open handle‖ ≤ 0.035`` (see :class:`..drawer_open.DrawerOpen`)."""
+    target = offset(goal, *SUCCESS_FROM_GOAL)
+    return (handle - target).norm(dim=-1) <= SUCCESS_RADIUS
+
+
+def scaled_norm(x: torch.Tensor, scale: tuple[float, float, float]) -> torch.Tensor:
+    """``‖x · scale‖`` over the last axis (``[..., 3]``)."""
+    return torch.stack([x[..., 0] * scale[0], x[..., 1] * scale[1], x[..., 2] * scale[2]], dim=-1).norm(dim=-1)
 
 
 class DrawerOpen(DrawerSceneMixin, MetaWorldTask):
@@ -48,6 +74,8 @@ class DrawerOpen(DrawerSceneMixin, MetaWorldTask):
     """
 
     name = "drawer_open"
+    mtbench_id = 18
+    description = "Grab the drawer handle and pull the drawer open."
     scene = SCENE
     reset_low = RESET_LOW
     reset_high = RESET_HIGH
@@ -56,18 +84,14 @@ class DrawerOpen(DrawerSceneMixin, MetaWorldTask):
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         cabinet = vec[:, :3]
         self.place_drawer(s, cabinet, 0.0, mask)
-        goal = shift(cabinet, OPEN_GOAL_OFFSET)
-        s.goal.copy_(torch.where(mask[:, None], goal, s.goal))
-        s.obj_init_pos.copy_(torch.where(mask[:, None], cabinet, s.obj_init_pos))
+        self.masked_set(s.goal, offset(cabinet, *GOAL_OFFSET), mask)
+        self.masked_set(s.obj_init_pos, cabinet, mask)
 
-    def handle_pos(self, s: TaskState) -> torch.Tensor:
-        return shift(self.drawer_link_pos(s), OPEN_HANDLE_OFFSET)
+    def objects(self, s: TaskState) -> Objects:
+        return Objects(self.handle_point(s, HANDLE_OFFSET), s.sim.xquat[:, self.drawer_body])
 
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        pose = torch.cat([self.handle_pos(s), s.sim.xquat[:, self.drawer_body]], dim=-1)
-        return pad_object_state(pose)
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return drawer_open_reward(s.tcp, s.obj_pos, s.goal, s.init_tcp)[0]
 
-    def evaluate(self, s, action, obs):
-        handle = self.handle_pos(s)
-        dense, _, _ = drawer_open_reward(s.tcp, handle, s.goal, s.init_tcp)
-        return dense, drawer_open_success(handle, s.goal)
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return drawer_open_success(s.obj_pos, s.goal)

@@ -7,8 +7,47 @@ import torch
 
 from ..reward_utils import gripper_caging_reward, hamacher_product, rect_prism_tolerance, tolerance
 from ..scene import SceneSpec
-from ..task import MetaWorldTask, TaskState, pad_object_state
+from ..task import MetaWorldTask, Objects, TaskState
 from ._grasp import grasped_and_lifted
+
+DIST_SCALE = (1.0, 2.0, 2.0)
+TARGET_RADIUS = 0.05  # MTBench success radius of the scaled distance
+REWARD_RADIUS = 0.07  # Meta-World's TARGET_RADIUS, used in the dense in_place term
+
+
+def _scaled(x: torch.Tensor) -> torch.Tensor:
+    """``x · DIST_SCALE`` for points ``[..., 3]``."""
+    return torch.stack([x[..., 0] * DIST_SCALE[0], x[..., 1] * DIST_SCALE[1], x[..., 2] * DIST_SCALE[2]], dim=-1)
+
+
+def peg_insert_side_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: torch.Tensor, head: torch.Tensor,
+                           tcp: torch.Tensor, left_pad: torch.Tensor, right_pad: torch.Tensor, goal: torch.Tensor,
+                           obj_init_pos: torch.Tensor, init_tcp: torch.Tensor, head_init: torch.Tensor,
+                           brc_box_1: torch.Tensor, tlc_box_1: torch.Tensor, brc_box_2: torch.Tensor,
+                           tlc_box_2: torch.Tensor) -> torch.Tensor:
+    """Dense reward ``[n]`` (see :class:`PegInsertSide`): points ``[n, 3]`` (``obj`` = the ``pegGrasp`` site,
+    ``head`` = ``pegHead``, the box corners = the block's collision-box sites), ``gripper_open`` ``[n]``."""
+    tcp_to_obj = (obj - tcp).norm(dim=-1)
+    obj_to_target = _scaled(head - goal).norm(dim=-1)
+    in_place = tolerance(obj_to_target, bounds=(0.0, REWARD_RADIUS), margin=_scaled(head_init - goal).norm(dim=-1),
+                         sigmoid="long_tail")
+    collision_boxes = hamacher_product(rect_prism_tolerance(head, brc_box_2, tlc_box_2),
+                                       rect_prism_tolerance(head, brc_box_1, tlc_box_1))
+    in_place = hamacher_product(in_place, collision_boxes)
+    grasp = gripper_caging_reward(
+        action, obj, obj_radius=0.0075, pad_success_thresh=0.03, object_reach_radius=0.01, xz_thresh=0.005,
+        left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos,
+        init_tcp=init_tcp, high_density=True,
+    )
+    lifted = grasped_and_lifted(tcp_to_obj, gripper_open, obj[:, 2], obj_init_pos[:, 2], 0.08)
+    grasp = torch.where(lifted, 1.0, grasp)
+    reward = hamacher_product(grasp, in_place)
+    return torch.where(lifted, reward + 1.0 + 5.0 * in_place, reward)
+
+
+def peg_insert_side_success(head: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
+    """``‖(pegHead − goal)·(1, 2, 2)‖ ≤ 0.05``."""
+    return _scaled(head - goal).norm(dim=-1) <= TARGET_RADIUS
 
 
 class PegInsertSide(MetaWorldTask):
@@ -44,15 +83,15 @@ class PegInsertSide(MetaWorldTask):
     """
 
     name = "peg_insert_side"
+    mtbench_id = 28
+    description = "Pick up a peg and insert it sideways into a hole in a block."
     scene = SceneSpec("sawyer_peg_insertion_side.xml", hand_init_pos=(0.0, 0.6, 0.2))
     # peg x, y, z then block x, y, z (Meta-World peg-insert-side-v3 ranges)
     reset_low = (0.0, 0.5, 0.02, -0.35, 0.4, -0.001)
     reset_high = (0.2, 0.7, 0.02, -0.25, 0.7, 0.001)
     GOAL_OFFSET = (0.03, 0.0, 0.13)
     HEAD_OFFSET = (-0.1, 0.0, 0.0)  # pegHead site in the peg body frame
-    DIST_SCALE = (1.0, 2.0, 2.0)
-    TARGET_RADIUS = 0.05  # MTBench success radius of the scaled distance
-    REWARD_RADIUS = 0.07  # Meta-World's TARGET_RADIUS, used in the dense in_place term
+    buffers = {"head_init": (3,)}
 
     def bind(self, model) -> None:
         self.peg_body = self.body_id("peg")
@@ -65,50 +104,22 @@ class PegInsertSide(MetaWorldTask):
             "bottom_right_corner_collision_box_2", "top_left_corner_collision_box_2")]
         self.goal_offset = self.const(self.GOAL_OFFSET)
         self.head_offset = self.const(self.HEAD_OFFSET)
-        self.dist_scale = self.const(self.DIST_SCALE)
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         self.set_free_body(s.sim, self.peg_qpos, vec[:, :3], mask)
         self.set_body_pos(s.sim, self.box_body, vec[:, 3:6], mask)
-        goal = vec[:, 3:6] + self.goal_offset
-        head = vec[:, :3] + self.head_offset
-        s.obj_init_pos.copy_(torch.where(mask[:, None], vec[:, :3], s.obj_init_pos))
-        s.goal.copy_(torch.where(mask[:, None], goal, s.goal))
-        if "head_init" not in s.extra:
-            s.extra["head_init"] = torch.zeros_like(s.goal)
-        s.extra["head_init"].copy_(torch.where(mask[:, None], head, s.extra["head_init"]))
+        self.masked_set(s.obj_init_pos, vec[:, :3], mask)
+        self.masked_set(s.goal, vec[:, 3:6] + self.goal_offset, mask)
+        self.masked_set(s.buffers["head_init"], vec[:, :3] + self.head_offset, mask)
 
-    def object_state(self, s: TaskState) -> torch.Tensor:
-        pose = torch.cat([s.sim.site_xpos[:, self.grasp_site], s.sim.xquat[:, self.peg_body]], dim=-1)
-        return pad_object_state(pose)
+    def objects(self, s: TaskState) -> Objects:
+        return Objects(s.sim.site_xpos[:, self.grasp_site], s.sim.xquat[:, self.peg_body])
 
-    def evaluate(self, s, action, obs):
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         x = s.sim.site_xpos
-        return self.reward_and_success(
-            action, obs[:, 4:7], obs[:, 3], x[:, self.head_site], s.tcp, s.left_pad, s.right_pad, s.goal,
-            s.obj_init_pos, s.init_tcp, s.extra["head_init"], *(x[:, i] for i in self.box_sites),
-            scale=self.dist_scale)
+        return peg_insert_side_reward(action, s.obj_pos, s.gripper_open, x[:, self.head_site], s.tcp, s.left_pad,
+                                      s.right_pad, s.goal, s.obj_init_pos, s.init_tcp, s.buffers["head_init"],
+                                      *(x[:, i] for i in self.box_sites))
 
-    @classmethod
-    def reward_and_success(cls, action, obj, tcp_opened, head, tcp, left_pad, right_pad, goal, obj_init_pos,
-                           init_tcp, head_init, brc_box_1, tlc_box_1, brc_box_2, tlc_box_2,
-                           scale: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Pure function of the state tensors (``[N, 3]`` points, ``[N]`` openness, ``[N, 4]`` actions,
-        ``scale`` = ``DIST_SCALE`` as a tensor)."""
-        tcp_to_obj = (obj - tcp).norm(dim=-1)
-        obj_to_target = ((head - goal) * scale).norm(dim=-1)
-        in_place = tolerance(obj_to_target, bounds=(0.0, cls.REWARD_RADIUS),
-                             margin=((head_init - goal) * scale).norm(dim=-1), sigmoid="long_tail")
-        collision_boxes = hamacher_product(rect_prism_tolerance(head, brc_box_2, tlc_box_2),
-                                           rect_prism_tolerance(head, brc_box_1, tlc_box_1))
-        in_place = hamacher_product(in_place, collision_boxes)
-        grasp = gripper_caging_reward(
-            action, obj, obj_radius=0.0075, pad_success_thresh=0.03, object_reach_radius=0.01, xz_thresh=0.005,
-            left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos,
-            init_tcp=init_tcp, high_density=True,
-        )
-        lifted = grasped_and_lifted(tcp_to_obj, tcp_opened, obj[:, 2], obj_init_pos[:, 2], 0.08)
-        grasp = torch.where(lifted, 1.0, grasp)
-        reward = hamacher_product(grasp, in_place)
-        reward = torch.where(lifted, reward + 1.0 + 5.0 * in_place, reward)
-        return reward, obj_to_target <= cls.TARGET_RADIUS
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return peg_insert_side_success(s.sim.site_xpos[:, self.head_site], s.goal)

@@ -6,8 +6,33 @@ import torch
 
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec
-from ..task import FreeObjectTask
+from ..task import FreeObjectTask, TaskState
 from ._grasp import grasped_and_lifted, pick_place_caging_reward
+
+TARGET_RADIUS = 0.05
+
+
+def pick_place_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: torch.Tensor, tcp: torch.Tensor,
+                      left_pad: torch.Tensor, right_pad: torch.Tensor, goal: torch.Tensor,
+                      obj_init_pos: torch.Tensor, init_tcp: torch.Tensor, init_left_pad: torch.Tensor,
+                      init_right_pad: torch.Tensor) -> torch.Tensor:
+    """Dense reward ``[n]`` (see :class:`PickPlace`); points ``[n, 3]``, ``gripper_open`` ``[n]``, actions ``[n, 4]``."""
+    obj_to_target = (obj - goal).norm(dim=-1)
+    tcp_to_obj = (obj - tcp).norm(dim=-1)
+    in_place = tolerance(obj_to_target, bounds=(0.0, TARGET_RADIUS),
+                         margin=(obj_init_pos - goal).norm(dim=-1), sigmoid="long_tail")
+    grasp = pick_place_caging_reward(
+        action, obj, left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos,
+        init_tcp=init_tcp, init_left_pad=init_left_pad, init_right_pad=init_right_pad,
+    )
+    reward = hamacher_product(grasp, in_place)
+    lifted = grasped_and_lifted(tcp_to_obj, gripper_open, obj[:, 2], obj_init_pos[:, 2], 0.02)
+    return torch.where(lifted, reward + 1.0 + 5.0 * in_place, reward)
+
+
+def pick_place_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
+    """``‖obj − goal‖ < 0.05``."""
+    return (obj - goal).norm(dim=-1) < TARGET_RADIUS
 
 
 class PickPlace(FreeObjectTask):
@@ -22,35 +47,22 @@ class PickPlace(FreeObjectTask):
         in_place = tolerance(‖obj − goal‖, (0, 0.05), margin=‖obj_init − goal‖, long_tail)
         grasp = pick-place caging (signed pad offsets, margins from the pad positions at reset, high density)
         r = hamacher(grasp, in_place)
-        if ‖tcp − obj‖ < 0.02 and obs[3] > 0 and obj_z − 0.01 > obj_init_z:  r += 1 + 5·in_place
+        if ‖tcp − obj‖ < 0.02 and gripper_open > 0 and obj_z − 0.01 > obj_init_z:  r += 1 + 5·in_place
 
     Success (paper-era MTBench): ``‖obj − goal‖ < 0.05`` (Meta-World: ``≤ 0.07``).
     """
 
     name = "pick_place"
+    mtbench_id = 31
+    description = "Pick up a puck and place it at a goal position in the air."
     scene = SceneSpec("sawyer_pick_place_v3.xml", hand_init_pos=(0.0, 0.6, 0.2))
     # puck x, y, z then goal x, y, z (Meta-World pick-place-v3 ranges)
     reset_low = (-0.1, 0.6, 0.02, -0.1, 0.8, 0.05)
     reset_high = (0.1, 0.7, 0.02, 0.1, 0.9, 0.3)
-    TARGET_RADIUS = 0.05
 
-    def evaluate(self, s, action, obs):
-        return self.reward_and_success(action, obs[:, 4:7], obs[:, 3], s.tcp, s.left_pad, s.right_pad, s.goal,
-                                       s.obj_init_pos, s.init_tcp, s.init_left_pad, s.init_right_pad)
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return pick_place_reward(action, s.obj_pos, s.gripper_open, s.tcp, s.left_pad, s.right_pad, s.goal,
+                                 s.obj_init_pos, s.init_tcp, s.init_left_pad, s.init_right_pad)
 
-    @classmethod
-    def reward_and_success(cls, action, obj, tcp_opened, tcp, left_pad, right_pad, goal, obj_init_pos, init_tcp,
-                           init_left_pad, init_right_pad) -> tuple[torch.Tensor, torch.Tensor]:
-        """Pure function of the state tensors (``[N, 3]`` points, ``[N]`` openness, ``[N, 4]`` actions)."""
-        obj_to_target = (obj - goal).norm(dim=-1)
-        tcp_to_obj = (obj - tcp).norm(dim=-1)
-        in_place = tolerance(obj_to_target, bounds=(0.0, cls.TARGET_RADIUS),
-                             margin=(obj_init_pos - goal).norm(dim=-1), sigmoid="long_tail")
-        grasp = pick_place_caging_reward(
-            action, obj, left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos,
-            init_tcp=init_tcp, init_left_pad=init_left_pad, init_right_pad=init_right_pad,
-        )
-        reward = hamacher_product(grasp, in_place)
-        lifted = grasped_and_lifted(tcp_to_obj, tcp_opened, obj[:, 2], obj_init_pos[:, 2], 0.02)
-        reward = torch.where(lifted, reward + 1.0 + 5.0 * in_place, reward)
-        return reward, obj_to_target < cls.TARGET_RADIUS
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return pick_place_success(s.obj_pos, s.goal)

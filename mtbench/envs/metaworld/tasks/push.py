@@ -8,6 +8,35 @@ from ..reward_utils import gripper_caging_reward, tolerance
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState
 
+OBJ_Z = 0.02  # puck centre height when resting on the table (Meta-World's obj_init_pos z)
+TARGET_RADIUS = 0.05
+TCP_RADIUS = 0.02  # MTBench success: hand still at the puck
+
+
+def push_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: torch.Tensor, tcp: torch.Tensor,
+                left_pad: torch.Tensor, right_pad: torch.Tensor, goal: torch.Tensor, obj_init_pos: torch.Tensor,
+                init_tcp: torch.Tensor) -> torch.Tensor:
+    """Dense reward ``[n]`` (see :class:`Push`); points ``[n, 3]``, ``gripper_open`` ``[n]``, actions ``[n, 4]``."""
+    tcp_to_obj = (obj - tcp).norm(dim=-1)
+    target_to_obj = (obj - goal).norm(dim=-1)
+    in_place = tolerance(target_to_obj, bounds=(0.0, TARGET_RADIUS),
+                         margin=(obj_init_pos - goal).norm(dim=-1), sigmoid="long_tail")
+    grasp = gripper_caging_reward(
+        action, obj, obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
+        left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos,
+        init_tcp=init_tcp, high_density=True,
+    )
+    reward = 2.0 * grasp
+    near = (tcp_to_obj < TCP_RADIUS) & (gripper_open > 0)
+    return torch.where(near, 1.0 + 2.0 * reward + 5.0 * in_place, reward)
+
+
+def push_success(obj: torch.Tensor, gripper_open: torch.Tensor, tcp: torch.Tensor,
+                 goal: torch.Tensor) -> torch.Tensor:
+    """``‖obj − goal‖ < 0.05`` and ``‖tcp − obj‖ < 0.02`` and the gripper not fully closed."""
+    near = ((obj - tcp).norm(dim=-1) < TCP_RADIUS) & (gripper_open > 0)
+    return ((obj - goal).norm(dim=-1) < TARGET_RADIUS) & near
+
 
 class Push(FreeObjectTask):
     """Push the red puck (cylinder, radius 2 cm, height 4 cm, 0.75 kg) to the green goal on the table.
@@ -22,51 +51,31 @@ class Push(FreeObjectTask):
         in_place = tolerance(‖obj − goal‖, (0, 0.05), margin=‖obj_init − goal‖, long_tail)
         grasp = gripper_caging(obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01,
                                xz_thresh=0.005, high_density=True)
-        r = 2·grasp;  if ‖tcp − obj‖ < 0.02 and obs[3] > 0:  r = 1 + 2·r + 5·in_place
+        r = 2·grasp;  if ‖tcp − obj‖ < 0.02 and gripper_open > 0:  r = 1 + 2·r + 5·in_place
 
     (Meta-World's ``reward += 1.0 + reward + 5·in_place`` doubles the caging term, kept as is.) MTBench's port
     used ``obj_radius=0, medium_density=True`` and no doubling; we keep Meta-World's formula.
 
-    Success (paper-era MTBench): ``‖obj − goal‖ < 0.05`` and ``‖tcp − obj‖ < 0.02`` and ``obs[3] > 0`` (the hand
-    must still be at the puck); Meta-World only asks ``‖obj − goal‖ ≤ 0.05``. All distances are frame invariant.
+    Success (paper-era MTBench): ``‖obj − goal‖ < 0.05`` and ``‖tcp − obj‖ < 0.02`` and the gripper not fully
+    closed (the hand must still be at the puck); Meta-World only asks ``‖obj − goal‖ ≤ 0.05``. All distances are
+    frame invariant.
     """
 
     name = "push"
+    mtbench_id = 38
+    description = "Push a puck across the table to a goal position."
     scene = SceneSpec("sawyer_push_v3.xml", hand_init_pos=(0.0, 0.6, 0.2))
     # puck x, y, z then goal x, y, z (Meta-World push-v3 ranges)
     reset_low = (-0.1, 0.6, 0.02, -0.1, 0.8, 0.01)
     reset_high = (0.1, 0.7, 0.02, 0.1, 0.9, 0.02)
-    OBJ_Z = 0.02  # puck centre height when resting on the table (Meta-World's obj_init_pos z)
-    TARGET_RADIUS = 0.05
-    TCP_RADIUS = 0.02  # MTBench success: hand still at the puck
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
-        z = torch.full_like(vec[:, :1], self.OBJ_Z)  # a fill, no host-to-device copy
-        obj = torch.cat([vec[:, :2], z], dim=-1)
-        goal = torch.cat([vec[:, 3:5], z], dim=-1)
-        self.place(s, obj, goal, mask)
+        z = torch.full_like(vec[:, :1], OBJ_Z)  # a fill, no host-to-device copy
+        self.place(s, torch.cat([vec[:, :2], z], dim=-1), torch.cat([vec[:, 3:5], z], dim=-1), mask)
 
-    def evaluate(self, s, action, obs):
-        obj = obs[:, 4:7]
-        tcp_opened = obs[:, 3]
-        return self.reward_and_success(action, obj, tcp_opened, s.tcp, s.left_pad, s.right_pad, s.goal,
-                                       s.obj_init_pos, s.init_tcp)
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return push_reward(action, s.obj_pos, s.gripper_open, s.tcp, s.left_pad, s.right_pad, s.goal,
+                           s.obj_init_pos, s.init_tcp)
 
-    @classmethod
-    def reward_and_success(cls, action, obj, tcp_opened, tcp, left_pad, right_pad, goal, obj_init_pos,
-                           init_tcp) -> tuple[torch.Tensor, torch.Tensor]:
-        """Pure function of the state tensors (``[N, 3]`` points, ``[N]`` openness, ``[N, 4]`` actions)."""
-        tcp_to_obj = (obj - tcp).norm(dim=-1)
-        target_to_obj = (obj - goal).norm(dim=-1)
-        in_place = tolerance(target_to_obj, bounds=(0.0, cls.TARGET_RADIUS),
-                             margin=(obj_init_pos - goal).norm(dim=-1), sigmoid="long_tail")
-        grasp = gripper_caging_reward(
-            action, obj, obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
-            left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos,
-            init_tcp=init_tcp, high_density=True,
-        )
-        reward = 2.0 * grasp
-        near = (tcp_to_obj < cls.TCP_RADIUS) & (tcp_opened > 0)
-        reward = torch.where(near, 1.0 + 2.0 * reward + 5.0 * in_place, reward)
-        success = (target_to_obj < cls.TARGET_RADIUS) & near
-        return reward, success
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return push_success(s.obj_pos, s.gripper_open, s.tcp, s.goal)

@@ -30,6 +30,8 @@ class WindowClose(WindowSceneMixin, MetaWorldTask):
     """
 
     name = "window_close"
+    mtbench_id = 48
+    description = "Slide a window closed horizontally."
     scene = SCENE
     reset_low = (0.0, 0.75, 0.2)
     reset_high = (0.0, 0.9, 0.2)
@@ -38,12 +40,13 @@ class WindowClose(WindowSceneMixin, MetaWorldTask):
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         window = vec[:, :3]
         self.place_window(s, window, SLIDE_TRAVEL, mask)
-        s.goal.copy_(torch.where(mask[:, None], window, s.goal))
-        s.obj_init_pos.copy_(torch.where(mask[:, None], window, s.obj_init_pos))
+        self.masked_set(s.goal, window, mask)
+        self.masked_set(s.obj_init_pos, window, mask)
 
-    def evaluate(self, s, action, obs):
-        handle = self.handle_pos(s)
-        handle_init = self.handle_init(s)
-        x_error_init = (handle_init[:, 0] - s.goal[:, 0]).abs()
-        dense, _, _ = window_reward(s.tcp, handle, s.goal, handle_init, s.init_tcp, x_error_init, "gaussian")
-        return dense, window_success(handle, handle_init, -1.0)
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        x_error_init = (s.buffers["handle_init"][:, 0] - s.goal[:, 0]).abs()
+        return window_reward(s.tcp, s.obj_pos, s.goal, s.buffers["handle_init"], s.init_tcp, x_error_init,
+                             "gaussian")[0]
+
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return window_success(s.obj_pos, s.buffers["handle_init"], -1.0)

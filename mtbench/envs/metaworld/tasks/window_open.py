@@ -32,6 +32,8 @@ class WindowOpen(WindowSceneMixin, MetaWorldTask):
     """
 
     name = "window_open"
+    mtbench_id = 49
+    description = "Slide a window open horizontally."
     scene = SCENE
     reset_low = (-0.1, 0.7, 0.16)
     reset_high = (0.1, 0.9, 0.16)
@@ -41,12 +43,13 @@ class WindowOpen(WindowSceneMixin, MetaWorldTask):
         window = vec[:, :3]
         self.place_window(s, window, 0.0, mask)
         goal = torch.stack([window[:, 0] + SLIDE_TRAVEL, window[:, 1], window[:, 2]], dim=-1)
-        s.goal.copy_(torch.where(mask[:, None], goal, s.goal))
-        s.obj_init_pos.copy_(torch.where(mask[:, None], window, s.obj_init_pos))
+        self.masked_set(s.goal, goal, mask)
+        self.masked_set(s.obj_init_pos, window, mask)
 
-    def evaluate(self, s, action, obs):
-        handle = self.handle_pos(s)
-        handle_init = self.handle_init(s)
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         x_error_init = (s.obj_init_pos[:, 0] - s.goal[:, 0]).abs()
-        dense, _, _ = window_reward(s.tcp, handle, s.goal, handle_init, s.init_tcp, x_error_init, "long_tail")
-        return dense, window_success(handle, handle_init, +1.0)
+        return window_reward(s.tcp, s.obj_pos, s.goal, s.buffers["handle_init"], s.init_tcp, x_error_init,
+                             "long_tail")[0]
+
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return window_success(s.obj_pos, s.buffers["handle_init"], +1.0)
