@@ -8,6 +8,7 @@ constraint buffers overflowed. Nothing here knows about tasks, rewards or observ
 
 from __future__ import annotations
 
+import dataclasses
 import gc
 import os
 from typing import Sequence
@@ -36,6 +37,27 @@ FATAL_OVERFLOW = int(
 
 # Box-box narrowphase choices (see ``WarpSim``).
 BOX_BOX_COLLIDERS = ("primitive", "gjk")
+
+
+@wp.kernel
+def _zero_nonfinite_rows(mask: wp.array(dtype=wp.bool), values: wp.array2d(dtype=wp.float32)):
+    """``values[w, j] = 0`` where world ``w`` is masked and the value is NaN or infinite."""
+    w, j = wp.tid()
+    if mask[w]:
+        if not wp.isfinite(values[w, j]):
+            values[w, j] = 0.0
+
+
+def _float_rows(arr: wp.array, nworld: int) -> wp.array | None:
+    """A ``[nworld, k]`` float32 view of a contiguous per-world array of float32-based dtype (vectors, matrices,
+    ...), or ``None`` for arrays of another kind."""
+    if not isinstance(arr, wp.array) or arr.ndim < 1 or arr.shape[0] != nworld or arr.size == 0:
+        return None
+    scalar = getattr(arr.dtype, "_wp_scalar_type_", arr.dtype)
+    if scalar is not wp.float32 or not arr.is_contiguous:
+        return None
+    per_world = (arr.size * wp.types.type_size_in_bytes(arr.dtype)) // (nworld * 4)
+    return wp.array(ptr=arr.ptr, dtype=wp.float32, shape=(nworld, per_world), device=arr.device, copy=False)
 
 
 def _init_warp() -> None:
@@ -129,12 +151,20 @@ class WarpSim:
                 self.model.opt.disableflags |= int(mjw.DisableBit.NATIVECCD)
             self.data = mjw.put_data(mjm, data0, nworld=nworld, nconmax=nconmax, njmax=njmax)
             self._key_ids = wp.full(nworld, -1, dtype=int)
+            # a reset of a world that went non-finite also zeroes the NaN/inf values its derived quantities and
+            # solver buffers kept (MuJoCo Warp's reset restores the state, not e.g. the constraint rows beyond
+            # nefc, which its solver still reads: the world would turn NaN again at its next step)
+            self._clean_mask = wp.zeros(nworld, dtype=bool)
+            self._clean_flag = wp.zeros(1, dtype=wp.int32)
+            self._clean_rows = self._per_world_float_arrays()
         self.stream: torch.cuda.Stream | None = None
         self._wp_stream = None
         if self.device.type == "cuda":
             self.stream = torch.cuda.Stream(device=self.device)
             self._wp_stream = wp.stream_from_torch(self.stream)
         self._key_ids_t = wp.to_torch(self._key_ids)
+        self._clean_mask_t = wp.to_torch(self._clean_mask)
+        self._clean_flag_t = wp.to_torch(self._clean_flag)
         if not self._has_key:
             self._reset_mask = wp.zeros(nworld, dtype=bool, device=self.wp_device)
             self._reset_mask_t = wp.to_torch(self._reset_mask)
@@ -172,7 +202,31 @@ class WarpSim:
             mjw.step(self.model, self.data)
         mjw.kinematics(self.model, self.data)
 
+    def _per_world_float_arrays(self) -> list[wp.array]:
+        """``[nworld, k]`` float views of every per-world float array of the data (state, derived quantities,
+        constraint rows), for :meth:`_clean_nonfinite`."""
+        found, seen = [], set()
+        stack = [self.data]
+        while stack:
+            obj = stack.pop()
+            for f in dataclasses.fields(obj):
+                value = getattr(obj, f.name)
+                if dataclasses.is_dataclass(value) and not isinstance(value, type):
+                    stack.append(value)
+                    continue
+                rows = _float_rows(value, self.nworld) if isinstance(value, wp.array) else None
+                if rows is not None and value.ptr not in seen:
+                    seen.add(value.ptr)
+                    found.append(rows)
+        return found
+
+    def _clean_nonfinite(self) -> None:
+        for rows in self._clean_rows:
+            wp.launch(_zero_nonfinite_rows, dim=rows.shape, inputs=[self._clean_mask, rows])
+
     def _reset_impl(self) -> None:
+        # only when a staged world is unhealthy (a conditional graph node: free otherwise)
+        wp.capture_if(self._clean_flag, on_true=self._clean_nonfinite)
         if self._has_key:  # per-world key ids: -1 leaves a world untouched
             mjw.reset_data_keyframe(self.model, self.data, self._key_ids)
         else:
@@ -224,6 +278,9 @@ class WarpSim:
             self._key_ids_t.copy_(mask.to(self._key_ids_t.dtype) - 1)  # keyframe 0 where mask, -1 (untouched) elsewhere
         else:
             self._reset_mask_t.copy_(mask)
+        clean = mask & self.unhealthy()
+        self._clean_mask_t.copy_(clean)
+        self._clean_flag_t.copy_(clean.any().reshape(1))  # stays on the device (no host sync)
         self._overflow.masked_fill_(mask, 0)
 
     def reset(self, mask: torch.Tensor) -> None:

@@ -240,6 +240,7 @@ class Trainer:
         self.updates = 0
         self.skipped_updates = 0
         self.unhealthy_resets = 0.0  # env worlds reset after a NaN / runaway state / buffer overflow
+        self.nonfinite_actions = 0.0  # env steps whose action had a NaN/inf component
         self.nonfinite_streak = 0
         self.max_nonfinite_streak = int(cfg.get("max_nonfinite_iterations", 10))
         self.window = EpisodeStatsWindow(self.task_names, int(cfg.get("success_window", 5)))
@@ -369,6 +370,7 @@ class Trainer:
         t0 = time.perf_counter()
         data, stats = self.collect()
         unhealthy = stats.get("unhealthy", None)  # optional: envs other than mtbench's may not report it
+        nonfinite = stats.get("nonfinite_actions", None)
         self.window.push(stats)  # device -> host copy: also ends the collection timing on GPU
         t1 = time.perf_counter()
         means = self.update(data)
@@ -403,6 +405,9 @@ class Trainer:
         if unhealthy is not None:  # worlds the env reset after a NaN / runaway state / buffer overflow
             self.unhealthy_resets += float(unhealthy.sum())
             out["env/unhealthy_resets_total"] = self.unhealthy_resets
+        if nonfinite is not None:  # policy actions with a NaN/inf component (replaced by 0 by the env)
+            self.nonfinite_actions += float(nonfinite.sum())
+            out["env/nonfinite_actions_total"] = self.nonfinite_actions
         if skipped:
             warnings.warn(
                 f"iteration {self.iteration}: {skipped}/{self.epochs * self.num_minibatches} minibatch updates "
@@ -483,6 +488,7 @@ class Trainer:
                 "updates": self.updates,
                 "skipped_updates": self.skipped_updates,
                 "unhealthy_resets": self.unhealthy_resets,
+                "nonfinite_actions": self.nonfinite_actions,
                 "nonfinite_streak": self.nonfinite_streak,
             },
             "loss": self.loss.state_dict(),
@@ -536,6 +542,7 @@ class Trainer:
         self.iteration, self.frames = int(c["iteration"]), int(c["frames"])
         self.updates, self.skipped_updates = int(c["updates"]), int(c["skipped_updates"])
         self.unhealthy_resets = float(c.get("unhealthy_resets", 0.0))
+        self.nonfinite_actions = float(c.get("nonfinite_actions", 0.0))
         self.nonfinite_streak = int(c.get("nonfinite_streak", 0))
         self.loss.load_state_dict(state["loss"])
         if state.get("update_module") is not None and self.update_module is not self.loss:

@@ -146,7 +146,9 @@ class MetaWorldEnv(EnvBase):
         self._prev_frame = torch.zeros(num_envs, 18, device=dev)
         self._reset_vec = [task.sample(s.n, self._generator, dev) for task, s in self.blocks]
         self._vec_sampled = torch.zeros(num_envs, dtype=torch.bool, device=dev)
-        self._stats = torch.zeros(5, self.num_tasks, device=dev)  # episodes, success, return, length, unhealthy
+        # per task: episodes, success, return, length, unhealthy, nonfinite_actions
+        self._stats = torch.zeros(len(self.STAT_KEYS), self.num_tasks, device=dev)
+        self._nonfinite_action = torch.zeros(num_envs, dtype=torch.bool, device=dev)
         self._parallel_streams = parallel_streams
         # step buffers: the stages below communicate only through these (the stages may be CUDA graphs)
         self._action_in = torch.zeros(num_envs, ACTION_DIM, device=dev)
@@ -261,7 +263,11 @@ class MetaWorldEnv(EnvBase):
     # Each stage reads and writes only persistent buffers, so that on the GPU it can be replayed from a CUDA
     # graph (``GraphedStage``) between the Warp graph launches of the physics.
     def _stage_action(self) -> None:
-        self._action.copy_(self._action_in.clamp(-1.0, 1.0))
+        """Clamp the action to [-1, 1]; a NaN/inf component is replaced by 0 (and counted) before it can reach
+        the physics."""
+        finite = torch.isfinite(self._action_in)
+        self._nonfinite_action.copy_(~finite.all(-1))
+        self._action.copy_(torch.where(finite, self._action_in, torch.zeros_like(self._action_in)).clamp(-1.0, 1.0))
         self._apply_action(self._action)
 
     def _stage_evaluate(self) -> None:
@@ -331,7 +337,7 @@ class MetaWorldEnv(EnvBase):
     def _accumulate_stats(self, done: torch.Tensor, unhealthy: torch.Tensor) -> None:
         counted = (done & self._ep_counted).float()
         rows = torch.stack([counted, counted * self._ep_success.float(), counted * self._ep_return,
-                            counted * self._step_count.float(), unhealthy.float()])
+                            counted * self._step_count.float(), unhealthy.float(), self._nonfinite_action.float()])
         self._stats.index_add_(1, self.task_id, rows)
 
     def _begin_episode(self, mask: torch.Tensor) -> None:
@@ -418,14 +424,13 @@ class MetaWorldEnv(EnvBase):
         self._refresh_kinematic_quantities()
 
     # ------------------------------------------------------------------ statistics
+    STAT_KEYS = ("episodes", "success", "return", "length", "unhealthy", "nonfinite_actions")
+
     def pop_episode_stats(self) -> TensorDict:
         """Per-task sums over the episodes finished since the last call (``[K]`` tensors, on the env device):
-        ``episodes``, ``success`` (episodes with success at any step), ``return``, ``length``, and
-        ``unhealthy`` (worlds reset because of NaN / runaway state / buffer overflow)."""
+        ``episodes``, ``success`` (episodes with success at any step), ``return``, ``length``, ``unhealthy``
+        (worlds reset because of NaN / runaway state / buffer overflow) and ``nonfinite_actions`` (steps whose
+        action had a NaN/inf component, replaced by 0)."""
         stats = self._stats.clone()
         self._stats.zero_()
-        return TensorDict(
-            {"episodes": stats[0], "success": stats[1], "return": stats[2], "length": stats[3],
-             "unhealthy": stats[4]},
-            batch_size=[self.num_tasks],
-        )
+        return TensorDict(dict(zip(self.STAT_KEYS, stats.unbind(0))), batch_size=[self.num_tasks])
