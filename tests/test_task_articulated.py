@@ -1,9 +1,9 @@
 """Known-answer tests of the articulated-fixture tasks (drawer_open, drawer_close, window_open, window_close).
 
-No env is built. The rewards are compared with Meta-World's own ``compute_reward`` methods, compiled from the
-installed metaworld source files and called on a stand-in ``self`` (numpy, float64); success rules and the
-geometric offsets the tasks use are checked against the Meta-World XMLs (plain MuJoCo on the CPU) and against
-hand-set states.
+No env is built. The rewards are checked against the paper-era MTBench formulas (``task_fns/*.py`` of
+Viraj-Joshi/MTBench ed2e2b5), recomputed per state in float64 NumPy with Meta-World's own ``tolerance`` and
+``hamacher_product`` (compiled from the installed metaworld source); success rules and the geometric offsets the
+tasks use are checked against the Meta-World XMLs (plain MuJoCo on the CPU) and against hand-set states.
 """
 
 from __future__ import annotations
@@ -41,28 +41,6 @@ def _t(x) -> torch.Tensor:
 # --------------------------------------------------------------------------------------------------------------
 # Meta-World reference (compiled from the installed source files; skipped when metaworld is not installed)
 # --------------------------------------------------------------------------------------------------------------
-def _compile_method(path: Path, class_name: str, func_name: str, namespace: dict[str, Any]) -> Callable[..., Any]:
-    tree = ast.parse(path.read_text(), filename=str(path))
-    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == class_name)
-    func = next(n for n in cls.body if isinstance(n, ast.FunctionDef) and n.name == func_name)
-    func.decorator_list = []
-    code = compile(ast.Module(body=[func], type_ignores=[]), str(path), "exec",
-                   flags=__future__.annotations.compiler_flag, dont_inherit=True)
-    exec(code, namespace)
-    return namespace[func_name]
-
-
-def _class_constant(path: Path, class_name: str, attr: str) -> Any:
-    tree = ast.parse(path.read_text(), filename=str(path))
-    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == class_name)
-    for node in cls.body:
-        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and node.target.id == attr:
-            return ast.literal_eval(node.value)
-        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == attr for t in node.targets):
-            return ast.literal_eval(node.value)
-    raise KeyError(attr)
-
-
 @lru_cache(maxsize=1)
 def _reference() -> types.SimpleNamespace | str:
     spec = importlib.util.find_spec("metaworld")
@@ -73,23 +51,7 @@ def _reference() -> types.SimpleNamespace | str:
                                                      "reward_utils.py")
     ru = importlib.util.module_from_spec(ru_spec)
     ru_spec.loader.exec_module(ru)
-    import numpy.typing as npt
-
-    ns = {"np": np, "npt": npt, "Any": Any, "reward_utils": ru}
-    envs = root / "envs"
-    return types.SimpleNamespace(
-        drawer_open=_compile_method(envs / "sawyer_drawer_open_v3.py", "SawyerDrawerOpenEnvV3", "compute_reward",
-                                    dict(ns)),
-        drawer_close=_compile_method(envs / "sawyer_drawer_close_v3.py", "SawyerDrawerCloseEnvV3",
-                                     "compute_reward", dict(ns)),
-        window_open=_compile_method(envs / "sawyer_window_open_v3.py", "SawyerWindowOpenEnvV3", "compute_reward",
-                                    dict(ns)),
-        window_close=_compile_method(envs / "sawyer_window_close_v3.py", "SawyerWindowCloseEnvV3",
-                                     "compute_reward", dict(ns)),
-        base_target_radius=_class_constant(root / "sawyer_xyz_env.py", "SawyerXYZEnv", "TARGET_RADIUS"),
-        window_target_radius=_class_constant(envs / "sawyer_window_open_v3.py", "SawyerWindowOpenEnvV3",
-                                             "TARGET_RADIUS"),
-    )
+    return types.SimpleNamespace(tolerance=ru.tolerance, hamacher=ru.hamacher_product)
 
 
 @pytest.fixture(scope="module")
@@ -110,92 +72,91 @@ def _obs(hand: np.ndarray, obj: np.ndarray) -> np.ndarray:
 # drawer_open
 # --------------------------------------------------------------------------------------------------------------
 CABINET = np.array([0.05, 0.9, 0.0])
-
-
-def _drawer_open_goal(cabinet: np.ndarray) -> np.ndarray:
-    return cabinet + np.array(open_task.GOAL_OFFSET)
+HANDLE_CLOSED = CABINET + np.array([0.0, -0.17, 0.09])  # drawer_open's observed handle point, slide 0
 
 
 def test_drawer_open_maximum_and_success() -> None:
-    goal = _t(_drawer_open_goal(CABINET))[None]
+    goal = _t(CABINET + np.array(open_task.GOAL_OFFSET))[None]
+    torch.testing.assert_close(goal, _t(HANDLE_CLOSED + [0.0, -0.16, 0.0])[None])  # the fully open handle point
     init_tcp = _t([[0.0, 0.6, 0.2]])
     dense, caging, opening = drawer_open_reward(goal, goal, goal, init_tcp)  # tcp at the handle, handle at goal
     torch.testing.assert_close(dense, _t([2.0]))
-    # the env's non-success reward at the maximum equals Meta-World's maximum dense reward (10)
+    # the env's non-success reward at the maximum: 2 * 0.05 * reward_scale 100 = 10
     assert float(dense * DrawerOpen.dense_scale * 100.0) == pytest.approx(10.0)
-    # success: handle within 3.5 cm of the fully open handle point (slide at -0.16)
-    handle_closed = CABINET + np.array([0.0, -0.17, 0.09])
+    # success: handle within 3.5 cm of the fully open handle point
     slides = np.array([0.0, -0.05, -0.12, -0.126, -0.16, -0.19])
-    handles = _t(handle_closed[None] + np.outer(slides, [0.0, 1.0, 0.0]))
+    handles = _t(HANDLE_CLOSED[None] + np.outer(slides, [0.0, 1.0, 0.0]))
     success = drawer_open_success(handles, goal.expand(len(slides), 3))
     assert success.tolist() == [False, False, False, True, True, True]
-    # far away: small reward
-    far, _, _ = drawer_open_reward(init_tcp, _t(handle_closed)[None], goal, init_tcp)
-    assert 0.15 < float(far) < 0.3  # both terms near their value at the margin (0.1)
+    far, _, _ = drawer_open_reward(init_tcp, _t(HANDLE_CLOSED)[None], goal, init_tcp)
+    assert 0.25 < float(far) < 0.4  # both terms near their margin value (0.1 each) or a little above
 
 
-def test_drawer_open_reward_matches_metaworld(ref) -> None:
+def test_drawer_open_reward_matches_mtbench(ref) -> None:
+    """MTBench: opening = tol(‖handle − target‖, (0, .02), margin .2); caging = tol(‖handle − tcp‖, (0, .01),
+    margin ‖(target + .2 pull axis) − tcp_init‖), scale (1, 1, 1); r = caging + opening."""
     rng = np.random.default_rng(0)
-    goal = _drawer_open_goal(CABINET)
+    goal = CABINET + np.array(open_task.GOAL_OFFSET)
     init_tcp = np.array([0.01, 0.6, 0.2])
     for _ in range(20):
         tcp = rng.uniform([-0.2, 0.4, 0.05], [0.2, 0.8, 0.3])
-        handle = CABINET + np.array([0.0, -0.17 + rng.uniform(-0.17, 0.0), 0.09])
-        me = types.SimpleNamespace(_target_pos=goal, reward_function_version="v2", maxDist=0.2, init_tcp=init_tcp)
-        expected = ref.drawer_open(me, np.zeros(4), _obs(tcp, handle))
-        dense, caging, opening = drawer_open_reward(_t(tcp)[None], _t(handle)[None], _t(goal)[None],
-                                                    _t(init_tcp)[None])
-        assert float(dense) * 5.0 == pytest.approx(expected[0], abs=1e-9)
-        assert float(caging) == pytest.approx(expected[4], abs=1e-9)
-        assert float(opening) == pytest.approx(expected[5], abs=1e-9)
+        handle = HANDLE_CLOSED + np.array([0.0, rng.uniform(-0.17, 0.0), 0.0])
+        opening = ref.tolerance(np.linalg.norm(handle - goal), bounds=(0.0, 0.02), margin=0.2, sigmoid="long_tail")
+        handle_init = goal + np.array([0.0, 0.2, 0.0])
+        caging = ref.tolerance(np.linalg.norm(handle - tcp), bounds=(0.0, 0.01),
+                               margin=np.linalg.norm(handle_init - init_tcp), sigmoid="long_tail")
+        dense, ours_caging, ours_opening = drawer_open_reward(_t(tcp)[None], _t(handle)[None], _t(goal)[None],
+                                                              _t(init_tcp)[None])
+        assert float(dense) == pytest.approx(caging + opening, abs=1e-9)
+        assert float(ours_caging) == pytest.approx(caging, abs=1e-9)
+        assert float(ours_opening) == pytest.approx(opening, abs=1e-9)
 
 
 # --------------------------------------------------------------------------------------------------------------
 # drawer_close
 # --------------------------------------------------------------------------------------------------------------
-def test_drawer_close_radius_is_metaworlds(ref) -> None:
-    # compute_reward reads self.TARGET_RADIUS (the base class's), not the class's unused _TARGET_RADIUS
-    assert close_task.TARGET_RADIUS == ref.base_target_radius
-
-
 def test_drawer_close_known_answers() -> None:
     goal = _t(CABINET + np.array(close_task.GOAL_OFFSET))[None]
     handle_closed = CABINET + np.array([0.0, -0.17, 0.14])
+    torch.testing.assert_close(goal, _t(handle_closed)[None])
     slides = np.array([-0.15, -0.06, -0.054, 0.0])
     handles = _t(handle_closed[None] + np.outer(slides, [0.0, 1.0, 0.0]))
     assert drawer_close_success(handles, goal.expand(4, 3)).tolist() == [False, False, True, True]
-    # tcp at the handle, gripper closed, handle inside the target radius: maximal reward (no success override)
-    handle = goal + _t([[0.0, 0.0, 0.04]])
+    # tcp at the handle, gripper closed, handle inside the 2.5 cm target radius: maximal reward 1
+    handle = goal + _t([[0.0, 0.02, 0.0]])
     dense, reach, in_place = drawer_close_reward(handle, handle, goal, _t(handle_closed)[None] + _t([[0, -0.15, 0]]),
                                                  _t([[0.0, 0.6, 0.2]]), _t([1.0]))
-    torch.testing.assert_close(dense, _t([10.0]))
-    # gripper open: Meta-World's reach term needs a closing action, so the reward is 0
+    torch.testing.assert_close(dense, _t([1.0]))
+    # 3 cm from the target (outside MTBench's 2.5 cm): in_place < 1
+    _, _, in_place = drawer_close_reward(handle, goal + _t([[0.0, 0.03, 0.0]]), goal, handle, _t([[0.0, 0.6, 0.2]]),
+                                         _t([1.0]))
+    assert float(in_place) < 1.0
+    # gripper open: the reach term needs a closing action, so the reward is 0
     dense_open, _, _ = drawer_close_reward(handle, handle, goal, handle, _t([[0.0, 0.6, 0.2]]), _t([-1.0]))
     torch.testing.assert_close(dense_open, _t([0.0]))
 
 
-def test_drawer_close_reward_matches_metaworld(ref) -> None:
+def test_drawer_close_reward_matches_mtbench(ref) -> None:
+    """MTBench: in_place = tol(‖handle − target‖, (0, .025), margin |‖init − target‖ − .025|); reach = H(tol(
+    ‖handle − tcp‖, (0, .005), margin |‖init − tcp_init‖ − .005|, gaussian), clip(a3, 0, 1)); r = H(reach, in_place)."""
     rng = np.random.default_rng(1)
     goal = CABINET + np.array(close_task.GOAL_OFFSET)
-    handle_init = CABINET + np.array([0.0, -0.17 - 0.15, 0.14])
+    handle_init = goal + np.array([0.0, -0.15, 0.0])
     init_tcp = np.array([0.0, 0.6, 0.2])
-    checked = 0
     for _ in range(40):
-        handle = CABINET + np.array([0.0, -0.17 + rng.uniform(-0.16, 0.0), 0.14])
-        tcp = handle + rng.normal(0.0, 0.03, 3)
+        handle = goal + np.array([0.0, rng.uniform(-0.16, 0.0), 0.0])
+        tcp = handle + rng.normal(0.0, 0.01, 3)
         grip = rng.uniform(-1.0, 1.0)
-        me = types.SimpleNamespace(_target_pos=goal, hand_init_pos=init_tcp, reward_function_version="v2",
-                                   tcp_center=tcp, obj_init_pos=handle_init, init_tcp=init_tcp,
-                                   TARGET_RADIUS=ref.base_target_radius)
-        expected = ref.drawer_close(me, np.array([0.0, 0.0, 0.0, grip]), _obs(tcp, handle))
-        dense, reach, in_place = drawer_close_reward(_t(tcp)[None], _t(handle)[None], _t(goal)[None],
-                                                     _t(handle_init)[None], _t(init_tcp)[None], _t([grip]))
-        assert float(reach) == pytest.approx(expected[4], abs=1e-9)
-        assert float(in_place) == pytest.approx(expected[5], abs=1e-9)
-        if expected[3] > ref.base_target_radius + 0.015:  # Meta-World's success override does not apply
-            assert float(dense) == pytest.approx(expected[0], abs=1e-9)
-            checked += 1
-    assert checked >= 10
+        in_place = ref.tolerance(np.linalg.norm(handle - goal), bounds=(0.0, 0.025),
+                                 margin=abs(np.linalg.norm(handle_init - goal) - 0.025), sigmoid="long_tail")
+        reach = ref.tolerance(np.linalg.norm(handle - tcp), bounds=(0.0, 0.005),
+                              margin=abs(np.linalg.norm(handle_init - init_tcp) - 0.005), sigmoid="gaussian")
+        reach = ref.hamacher(reach, min(max(grip, 0.0), 1.0))
+        dense, ours_reach, ours_in_place = drawer_close_reward(_t(tcp)[None], _t(handle)[None], _t(goal)[None],
+                                                               _t(handle_init)[None], _t(init_tcp)[None], _t([grip]))
+        assert float(ours_reach) == pytest.approx(reach, abs=1e-9)
+        assert float(ours_in_place) == pytest.approx(in_place, abs=1e-9)
+        assert float(dense) == pytest.approx(ref.hamacher(reach, in_place), abs=1e-9)
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -206,61 +167,51 @@ WINDOW = np.array([-0.05, 0.8, 0.16])
 
 def test_window_success_known_answers() -> None:
     handle_init = _t(WINDOW + np.array([-0.04, -0.095, 0.0]))[None]  # handleOpenStart, slide 0
+    goal = handle_init + _t([[0.2, 0.0, 0.0]])  # MTBench's target: the handle at the end of the travel
     slides = np.array([0.0, 0.185, 0.191, 0.2, 0.209])
     handles = handle_init + _t(np.outer(slides, [1.0, 0.0, 0.0]))
-    assert window_success(handles, handle_init.expand(5, 3), +1.0).tolist() == [False, False, True, True, True]
+    assert window_success(handles, goal.expand(5, 3)).tolist() == [False, False, True, True, True]
     # closing: from the open handle back to slide 0
     handle_open = _t(WINDOW + np.array([0.01 + 0.2, -0.095, 0.0]))[None]  # handleCloseStart, slide 0.2
+    goal = handle_open - _t([[0.2, 0.0, 0.0]])
     slides = np.array([0.2, 0.05, 0.011, 0.005, 0.0])
     handles = handle_open + _t(np.outer(slides - 0.2, [1.0, 0.0, 0.0]))
-    assert window_success(handles, handle_open.expand(5, 3), -1.0).tolist() == [False, False, False, True, True]
+    assert window_success(handles, goal.expand(5, 3)).tolist() == [False, False, False, True, True]
     # a handle displaced sideways (3-D rule) is not a success
-    assert not bool(window_success(handle_init + _t([[0.2, 0.02, 0.0]]), handle_init, +1.0))
+    assert not bool(window_success(goal + _t([[0.0, 0.02, 0.0]]), goal))
 
 
 def test_window_reward_maximum() -> None:
-    goal = _t(WINDOW + np.array([0.2, 0.0, 0.0]))[None]
-    handle = _t(WINDOW + np.array([0.16, -0.095, 0.0]))[None]  # open handle: 4 cm from the goal in x
-    dense, reach, in_place = window_reward(handle, handle, goal, handle - _t([[0.2, 0, 0]]), _t([[0, 0.4, 0.2]]),
-                                           0.2, "long_tail")
-    torch.testing.assert_close(dense, _t([10.0]))
-    far, _, _ = window_reward(_t([[0, 0.4, 0.2]]), handle - _t([[0.2, 0, 0]]), goal, handle - _t([[0.2, 0, 0]]),
-                              _t([[0, 0.4, 0.2]]), 0.2, "long_tail")
-    assert float(far) < 0.5
+    handle_init = _t(WINDOW + np.array([-0.04, -0.095, 0.0]))[None]
+    goal = handle_init + _t([[0.2, 0.0, 0.0]])
+    dense, reach, in_place = window_reward(goal, goal, goal, handle_init, _t([[0, 0.4, 0.2]]))
+    torch.testing.assert_close(dense, _t([1.0]))
+    # at the start both terms sit at their margins (0.1 each): H(0.1, 0.1) = 0.01 / 0.19
+    far, _, _ = window_reward(_t([[0, 0.4, 0.2]]), handle_init, goal, handle_init, _t([[0, 0.4, 0.2]]))
+    assert float(far) == pytest.approx(0.01 / 0.19, abs=1e-12)
 
 
-@pytest.mark.parametrize("task", ["window_open", "window_close"])
-def test_window_reward_matches_metaworld(ref, task: str) -> None:
+@pytest.mark.parametrize("direction", [1.0, -1.0])
+def test_window_reward_matches_mtbench(ref, direction: float) -> None:
+    """MTBench (both windows): in_place = tol(‖handle − target‖, (0, .01), margin |‖init − target‖ − .01|);
+    reach = tol(‖handle − tcp‖, (0, .02), margin |‖init − tcp_init‖ − .02|, gaussian); r = H(reach, in_place)."""
     rng = np.random.default_rng(2)
-    assert _window.TARGET_RADIUS == ref.window_target_radius
     init_tcp = np.array([0.0, 0.4, 0.2])
     for _ in range(20):
         window = rng.uniform([-0.1, 0.7, 0.16], [0.1, 0.9, 0.2])
-        if task == "window_open":
-            goal, site, slide0 = window + np.array([0.2, 0.0, 0.0]), np.array([-0.04, -0.095, 0.0]), 0.0
-        else:
-            goal, site, slide0 = window.copy(), np.array([0.01, -0.095, 0.0]), 0.2
-        handle_init = window + site + np.array([slide0, 0.0, 0.0])
-        handle = window + site + np.array([rng.uniform(0.0, 0.2), 0.0, 0.0])
-        tcp = handle + rng.normal(0.0, 0.05, 3)
-        me = types.SimpleNamespace(_target_pos=goal, obj_init_pos=window, tcp_center=tcp, init_tcp=init_tcp,
-                                   reward_function_version="v2", TARGET_RADIUS=ref.window_target_radius,
-                                   _get_pos_objects=lambda h=handle: h)
-        if task == "window_open":
-            me.window_handle_pos_init = handle_init
-            expected = ref.window_open(me, np.zeros(4), _obs(tcp, handle))
-            x_error_init, sigmoid = abs(window[0] - goal[0]), "long_tail"
-        else:
-            # Meta-World: window_handle_pos_init = (site before the kinematics update, slide 0) + (0.2, 0, 0)
-            me.window_handle_pos_init = handle_init
-            expected = ref.window_close(me, np.zeros(4), _obs(tcp, handle))
-            x_error_init, sigmoid = abs(handle_init[0] - goal[0]), "gaussian"
-        dense, reach, in_place = window_reward(_t(tcp)[None], _t(handle)[None], _t(goal)[None],
-                                               _t(handle_init)[None], _t(init_tcp)[None], _t([x_error_init]),
-                                               sigmoid)
-        assert float(dense) == pytest.approx(expected[0], abs=1e-9)
-        assert float(reach) == pytest.approx(expected[4], abs=1e-9)
-        assert float(in_place) == pytest.approx(expected[5], abs=1e-9)
+        handle_init = window + np.array([-0.04 if direction > 0 else 0.21, -0.095, 0.0])
+        goal = handle_init + np.array([0.2 * direction, 0.0, 0.0])
+        handle = handle_init + np.array([rng.uniform(0.0, 0.2) * direction, 0.0, 0.0])
+        tcp = handle + rng.normal(0.0, 0.03, 3)
+        in_place = ref.tolerance(np.linalg.norm(handle - goal), bounds=(0.0, 0.01),
+                                 margin=abs(np.linalg.norm(handle_init - goal) - 0.01), sigmoid="long_tail")
+        reach = ref.tolerance(np.linalg.norm(handle - tcp), bounds=(0.0, 0.02),
+                              margin=abs(np.linalg.norm(handle_init - init_tcp) - 0.02), sigmoid="gaussian")
+        dense, ours_reach, ours_in_place = window_reward(_t(tcp)[None], _t(handle)[None], _t(goal)[None],
+                                                         _t(handle_init)[None], _t(init_tcp)[None])
+        assert float(dense) == pytest.approx(ref.hamacher(reach, in_place), abs=1e-9)
+        assert float(ours_reach) == pytest.approx(reach, abs=1e-9)
+        assert float(ours_in_place) == pytest.approx(in_place, abs=1e-9)
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -286,12 +237,9 @@ def test_drawer_geometry_matches_xml() -> None:
         handle_open[slide] = (link + open_task.HANDLE_OFFSET, link + close_task.HANDLE_OFFSET)
     open_goal = CABINET + open_task.GOAL_OFFSET
     close_goal = CABINET + close_task.GOAL_OFFSET
-    # drawer_open: the success target is the fully open handle point; Meta-World's handle_pos_init is the closed one
-    np.testing.assert_allclose(handle_open[-0.16][0], open_goal + open_task.SUCCESS_FROM_GOAL, atol=1e-9)
-    np.testing.assert_allclose(handle_open[0.0][0][:2], (open_goal + (0, open_task.MAX_DIST, 0))[:2] -
-                               (0, 0.01), atol=1e-9)
-    # drawer_close: the success target is the closed handle point
-    np.testing.assert_allclose(handle_open[0.0][1], close_goal + close_task.SUCCESS_FROM_GOAL, atol=1e-9)
+    # drawer_open: the goal is the fully open handle point; drawer_close: the goal is the closed handle point
+    np.testing.assert_allclose(handle_open[-0.16][0], open_goal, atol=1e-9)
+    np.testing.assert_allclose(handle_open[0.0][1], close_goal, atol=1e-9)
 
 
 def test_window_geometry_matches_xml() -> None:

@@ -1,10 +1,11 @@
-"""Known-answer tests of the grasping tasks' rewards and success rules (push, pick_place, peg_insert_side).
+"""Known-answer tests of the grasping tasks (push, pick_place, peg_insert_side) against the paper-era MTBench
+reward formulas (``task_fns/*.py`` of Viraj-Joshi/MTBench ed2e2b5).
 
-No physics: the tasks' pure reward and success functions run on hand-set states. The dense rewards are compared
-with Meta-World's own ``compute_reward`` (metaworld 3.0.0, the "v2" reward) evaluated with numpy on the same
-numbers: the methods are compiled from the installed metaworld source files and called on a stand-in ``self``
-(``import metaworld`` itself needs optional rendering packages). Meta-World replaces the reward by 10 on its own
-success, so the comparisons use states outside that region; the success rules are the paper-era MTBench ones.
+No physics: the tasks' pure reward and success functions run on hand-set states. The reference recomputes MTBench's
+composition per state in float64 NumPy from independent parts: the tolerance, Hamacher product and caging reward
+are Meta-World's own (compiled from the installed ``metaworld`` source: MTBench's ``_gripper_caging_reward`` is a
+port of Meta-World's base caging, with MTBench's pad axis x_mtb being Meta-World's and our y), called with MTBench's
+per-task parameters.
 """
 
 from __future__ import annotations
@@ -21,7 +22,6 @@ import numpy as np
 import pytest
 import torch
 
-from mtbench.envs.metaworld.tasks import _grasp
 from mtbench.envs.metaworld.tasks import peg_insert_side as peg_task
 from mtbench.envs.metaworld.tasks import pick_place as pick_place_task
 from mtbench.envs.metaworld.tasks import push as push_task
@@ -36,10 +36,9 @@ def _push_rs(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp
             push_task.push_success(obj, opened, tcp, goal))
 
 
-def _pick_place_rs(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp, init_left, init_right):
+def _pick_place_rs(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp):
     """(dense reward, success) of pick_place on named state tensors."""
-    return (pick_place_task.pick_place_reward(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp,
-                                              init_left, init_right),
+    return (pick_place_task.pick_place_reward(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp),
             pick_place_task.pick_place_success(obj, goal))
 
 
@@ -78,15 +77,11 @@ def _reference() -> dict[str, Callable[..., Any]] | str:
     import numpy.typing as npt
 
     ns = {"np": np, "npt": npt, "Any": Any, "reward_utils": ru}
-    envs = root / "envs"
     return {
         "caging": _method(root / "sawyer_xyz_env.py", "SawyerXYZEnv", "_gripper_caging_reward", dict(ns)),
-        "push": _method(envs / "sawyer_push_v3.py", "SawyerPushEnvV3", "compute_reward", dict(ns)),
-        "pick_place": _method(envs / "sawyer_pick_place_v3.py", "SawyerPickPlaceEnvV3", "compute_reward", dict(ns)),
-        "pick_place_caging": _method(envs / "sawyer_pick_place_v3.py", "SawyerPickPlaceEnvV3",
-                                     "_gripper_caging_reward", dict(ns)),
-        "peg": _method(envs / "sawyer_peg_insertion_side_v3.py", "SawyerPegInsertionSideEnvV3", "compute_reward",
-                       dict(ns)),
+        "tolerance": ru.tolerance,
+        "hamacher": ru.hamacher_product,
+        "rect_prism": ru.rect_prism_tolerance,
     }
 
 
@@ -177,14 +172,30 @@ def _push(states):
         _stack(states, "init_tcp"))
 
 
-def test_push_dense_matches_metaworld(ref) -> None:
+def _caging(ref, s, **params) -> float:
+    """Meta-World's base caging reward (= MTBench's ``_gripper_caging_reward``) for one state."""
+    env = _FakeEnv(ref["caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"], goal=s["goal"],
+                   obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"])
+    return float(env._gripper_caging_reward(s["action"], s["obj"], **params))
+
+
+def _in_place(ref, dist: float, margin: float, radius: float) -> float:
+    return float(ref["tolerance"](dist, bounds=(0.0, radius), margin=margin, sigmoid="long_tail"))
+
+
+def test_push_dense_matches_mtbench(ref) -> None:
+    """MTBench push: r = 2·caging(obj_radius=0, pad .05, reach .01, xz .005, medium); + 1 + 5·in_place when the
+    TCP is within 2 cm of the puck and the gripper is not fully closed."""
     states = _random_grasp_states(np.random.default_rng(0), 48, goal_far=0.06)
     reward, success = _push(states)
     expected = []
     for s in states:
-        env = _FakeEnv(ref["caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"], goal=s["goal"],
-                       obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"], target_radius=push_task.TARGET_RADIUS)
-        expected.append(ref["push"](env, s["action"], _obs(s["tcp"], s["opened"], s["obj"]))[0])
+        r = 2.0 * _caging(ref, s, obj_radius=0.0, pad_success_thresh=0.05, object_reach_radius=0.01,
+                          xz_thresh=0.005, medium_density=True)
+        if np.linalg.norm(s["tcp"] - s["obj"]) < 0.02 and s["opened"] > 0:
+            r += 1.0 + 5.0 * _in_place(ref, np.linalg.norm(s["obj"] - s["goal"]),
+                                       np.linalg.norm(s["obj_init"] - s["goal"]), 0.05)
+        expected.append(r)
     np.testing.assert_allclose(reward.numpy(), np.array(expected), atol=ATOL, rtol=0)
     assert not success.any()  # every goal is > 5 cm away
     # both branches are exercised: hand at the puck (reward > 1) and away from it
@@ -201,8 +212,8 @@ def test_push_success_and_maximum_at_goal() -> None:
     action = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
     reward, success = _push_rs(action, obj, torch.tensor([0.48]), tcp, left, right, **args)
     assert success.item()
-    # caged and gripping: grasp = 1, in_place = 1 -> 1 + 2 * (2 * 1) + 5 * 1
-    torch.testing.assert_close(reward, torch.tensor([10.0]), atol=1e-4, rtol=0)
+    # caged, gripping and within the reach radius: grasp = 1, in_place = 1 -> 2 * 1 + 1 + 5 * 1
+    torch.testing.assert_close(reward, torch.tensor([8.0]), atol=1e-4, rtol=0)
     # MTBench's extra conditions: the hand must be within 2 cm of the puck and the gripper not fully closed
     far_tcp = obj + torch.tensor([0.0, 0.0, 0.025])
     _, success = _push_rs(action, obj, torch.tensor([0.48]), far_tcp, left, right, **args)
@@ -232,46 +243,31 @@ def _pick_place(states):
     return _pick_place_rs(
         _stack(states, "action"), _stack(states, "obj"), _stack(states, "opened"), _stack(states, "tcp"),
         _stack(states, "left"), _stack(states, "right"), _stack(states, "goal"), _stack(states, "obj_init"),
-        _stack(states, "init_tcp"), _stack(states, "init_left"), _stack(states, "init_right"))
+        _stack(states, "init_tcp"))
 
 
-def test_pick_place_dense_matches_metaworld(ref) -> None:
-    states = _random_grasp_states(np.random.default_rng(1), 48, goal_far=0.075)  # beyond Meta-World's 0.07
+def test_pick_place_dense_matches_mtbench(ref) -> None:
+    """MTBench pick_place: r = H(caging(obj_radius .015, pad .05, reach .01, xz .005, medium), in_place); + 1 +
+    5·in_place when held (TCP within 2 cm, gripper not fully closed) and lifted by more than 1 cm."""
+    states = _random_grasp_states(np.random.default_rng(1), 48, goal_far=0.075)
     for s in states[::4]:  # some lifted puck states (the +1 + 5 in_place branch)
         s["obj"] = _f32(s["obj_init"] + [0.0, 0.0, 0.05])
         s["tcp"] = _f32(s["obj"] + [0.0, 0.0, 0.005])
     reward, success = _pick_place(states)
     expected = []
     for s in states:
-        env = _FakeEnv(ref["pick_place_caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"],
-                       goal=s["goal"], obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"],
-                       init_left_pad=s["init_left"], init_right_pad=s["init_right"])
-        expected.append(ref["pick_place"](env, s["action"], _obs(s["tcp"], s["opened"], s["obj"]))[0])
+        in_place = _in_place(ref, np.linalg.norm(s["obj"] - s["goal"]), np.linalg.norm(s["obj_init"] - s["goal"]),
+                             0.05)
+        grasp = _caging(ref, s, obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01,
+                        xz_thresh=0.005, medium_density=True)
+        r = float(ref["hamacher"](grasp, in_place))
+        if (np.linalg.norm(s["tcp"] - s["obj"]) < 0.02 and s["opened"] > 0
+                and s["obj"][2] - 0.01 > s["obj_init"][2]):
+            r += 1.0 + 5.0 * in_place
+        expected.append(r)
     np.testing.assert_allclose(reward.numpy(), np.array(expected), atol=ATOL, rtol=0)
     assert not success.any()
     assert (reward > 1.0).any() and (reward < 1.0).any()
-
-
-def test_pick_place_caging_matches_metaworld(ref) -> None:
-    states = _random_grasp_states(np.random.default_rng(2), 32, goal_far=0.1)
-    ours = _grasp.pick_place_caging_reward(
-        _stack(states, "action"), _stack(states, "obj"), left_pad=_stack(states, "left"),
-        right_pad=_stack(states, "right"), tcp_center=_stack(states, "tcp"), obj_init_pos=_stack(states, "obj_init"),
-        init_tcp=_stack(states, "init_tcp"), init_left_pad=_stack(states, "init_left"),
-        init_right_pad=_stack(states, "init_right"))
-    expected = [ref["pick_place_caging"](
-        _FakeEnv(ref["caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"], goal=s["goal"],
-                 obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"], init_left_pad=s["init_left"],
-                 init_right_pad=s["init_right"]), s["action"], s["obj"]) for s in states]
-    np.testing.assert_allclose(ours.numpy(), np.array(expected), atol=1e-5, rtol=0)
-    # the offsets are signed: swapping the pads (left pad on the -y side) is not a cage
-    swapped = _grasp.pick_place_caging_reward(
-        _stack(states, "action"), _stack(states, "obj"), left_pad=_stack(states, "right"),
-        right_pad=_stack(states, "left"), tcp_center=_stack(states, "tcp"), obj_init_pos=_stack(states, "obj_init"),
-        init_tcp=_stack(states, "init_tcp"), init_left_pad=_stack(states, "init_left"),
-        init_right_pad=_stack(states, "init_right"))
-    caged = ours > 0.45
-    assert caged.any() and (swapped[caged] < 0.1).all()
 
 
 def test_pick_place_success_threshold() -> None:
@@ -282,15 +278,13 @@ def test_pick_place_success_threshold() -> None:
         tcp = obj.clone()
         reward, success = _pick_place_rs(
             torch.tensor([[0.0, 0.0, 0.0, 1.0]]), obj, torch.tensor([0.48]), tcp, tcp + torch.tensor([0, 0.024, 0]),
-            tcp - torch.tensor([0, 0.024, 0]), goal, obj_init, torch.tensor([[0.0, 0.6, 0.2]]),
-            torch.tensor([[0.0, 0.645, 0.2]]), torch.tensor([[0.0, 0.555, 0.2]]))
+            tcp - torch.tensor([0, 0.024, 0]), goal, obj_init, torch.tensor([[0.0, 0.6, 0.2]]))
         assert success.item() is ok
         assert reward.item() > 1.0  # held and lifted
     # at the goal, held: hamacher(grasp, 1) + 1 + 5 = grasp + 6 with grasp in [0, 1]
     assert 6.0 <= _pick_place_rs(
         torch.tensor([[0.0, 0.0, 0.0, 1.0]]), goal, torch.tensor([0.48]), goal, goal + torch.tensor([0, 0.024, 0]),
-        goal - torch.tensor([0, 0.024, 0]), goal, obj_init, torch.tensor([[0.0, 0.6, 0.2]]),
-        torch.tensor([[0.0, 0.645, 0.2]]), torch.tensor([[0.0, 0.555, 0.2]]))[0].item() <= 7.0
+        goal - torch.tensor([0, 0.024, 0]), goal, obj_init, torch.tensor([[0.0, 0.6, 0.2]]))[0].item() <= 7.0
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -328,18 +322,30 @@ def _peg_states(rng: np.random.Generator, n: int) -> list[dict[str, np.ndarray]]
     return states
 
 
-def test_peg_dense_matches_metaworld(ref) -> None:
+def test_peg_dense_matches_mtbench(ref) -> None:
+    """MTBench peg_insert_side: d = ‖(head − goal)·(1, 2, 2)‖ (its (2, 1, 2) in MTBench's frame); in_place =
+    H(tol(d, (0, .05), margin d_init), H(box 2, box 1)); grasp = caging(obj_radius .02, pad .05, reach 0, xz .005,
+    medium), 1 when held and lifted (TCP within 8 cm); r = H(grasp, in_place) (+ 1 + 5·in_place when held)."""
     states = _peg_states(np.random.default_rng(3), 60)
     reward, success = _peg(states)
-    expected, scaled = [], []
+    scale = np.array([1.0, 2.0, 2.0])
+    c = _CORNERS
+    expected = []
     for s in states:
-        env = _FakeEnv(ref["caging"], tcp=s["tcp"], left_pad=s["left"], right_pad=s["right"], goal=s["goal"],
-                       obj_init_pos=s["obj_init"], init_tcp=s["init_tcp"], sites={"pegHead": s["head"], **_CORNERS},
-                       target_radius=peg_task.REWARD_RADIUS, peg_head_pos_init=s["head_init"])
-        out = ref["peg"](env, s["action"], _obs(s["tcp"], s["opened"], s["obj"]))
-        expected.append(out[0])
-        scaled.append(out[3])
-    assert min(scaled) > 0.07  # no Meta-World success override in these states
+        d = np.linalg.norm((s["head"] - s["goal"]) * scale)
+        in_place = _in_place(ref, d, np.linalg.norm((s["head_init"] - s["goal"]) * scale), 0.05)
+        boxes = ref["hamacher"](
+            ref["rect_prism"](s["head"], c["bottom_right_corner_collision_box_2"],
+                              c["top_left_corner_collision_box_2"]),
+            ref["rect_prism"](s["head"], c["bottom_right_corner_collision_box_1"],
+                              c["top_left_corner_collision_box_1"]))
+        in_place = float(ref["hamacher"](in_place, boxes))
+        grasp = _caging(ref, s, obj_radius=0.02, pad_success_thresh=0.05, object_reach_radius=0.0,
+                        xz_thresh=0.005, medium_density=True)
+        held = (np.linalg.norm(s["tcp"] - s["obj"]) < 0.08 and s["opened"] > 0
+                and s["obj"][2] - 0.01 > s["obj_init"][2])
+        r = float(ref["hamacher"](1.0 if held else grasp, in_place))
+        expected.append(r + (1.0 + 5.0 * in_place if held else 0.0))
     np.testing.assert_allclose(reward.numpy(), np.array(expected), atol=ATOL, rtol=0)
     assert not success.any()
     assert (reward > 1.0).any() and (reward < 1.0).any()

@@ -13,7 +13,7 @@ import torch
 
 from ._common import action, parse
 
-# observed handle point = bar axis + (0, -0.01, 0.05); the goal is the closed bar's axis
+# observed handle point = bar axis + (0, -0.01, 0.05); the goal is that point with the drawer closed
 HANDLE_TO_BAR = (0.0, 0.01, -0.05)
 PUSH_HEIGHT = 0.05  # TCP above the bar axis while pushing
 SAFE_HEIGHT = 0.1  # TCP above the bar axis while flying in
@@ -34,7 +34,7 @@ def policy(obs: torch.Tensor) -> torch.Tensor:
     xy_ok = (hand[:, :2] - stage[:, :2]).norm(dim=-1) < ALIGN_RADIUS
 
     # push until the fingers' front reaches the closed wall (2 mm short; the cabinet front stops them there)
-    push_y = goal[:, 1] + FRONT_WALL_FROM_BAR - FINGER_FRONT - 0.002
+    push_y = goal[:, 1] + HANDLE_TO_BAR[1] + FRONT_WALL_FROM_BAR - FINGER_FRONT - 0.002
     push = torch.stack([stage[:, 0], push_y, stage[:, 2]], dim=-1)
     high = torch.stack([stage[:, 0], stage[:, 1], bar[:, 2] + SAFE_HEIGHT], dim=-1)
     target = torch.where((in_front & xz_ok)[:, None], push, torch.where((in_front & xy_ok)[:, None], stage, high))

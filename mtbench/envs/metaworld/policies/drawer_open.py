@@ -6,8 +6,7 @@ policy keeps the gripper open and lowers the rear (+y) finger onto the bar from 
 of the bar's axis: the fingertip comes down on the bar's upper rear side while the end of the hand rests against
 the front wall, and the contact on the back of the round bar (plus friction) drags the drawer when the hand moves
 to -y. Phases, chosen from distances: fly at a safe height to that point, descend (slowly for the last 3 cm), then
-pull at a limited speed until the handle is 3.5 cm short of the goal (the goal lies 4 cm beyond the slide limit, so
-that point is fully open). If the finger slips off the bar, the hand is no longer aligned and climbs back to
+pull at a limited speed until the handle is 0.5 cm short of the goal (the fully open handle point). If the finger slips off the bar, the hand is no longer aligned and climbs back to
 re-approach.
 """
 
@@ -28,7 +27,7 @@ RISE_RADIUS = 0.03
 SLOW_ZONE = 0.03
 DESCENT_SPEED = 0.3
 PULL_SPEED = 0.5
-OPEN_SHORT_OF_GOAL = 0.035
+OPEN_SHORT_OF_GOAL = 0.005
 
 
 def policy(obs: torch.Tensor) -> torch.Tensor:

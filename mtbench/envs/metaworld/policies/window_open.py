@@ -54,5 +54,5 @@ def push_sash(obs: torch.Tensor, direction: float, bar_from_handle: float, handl
 
 
 def policy(obs: torch.Tensor) -> torch.Tensor:
-    # handleOpenStart is 2.6 cm left of the bar; open, it lies 4 cm left of the goal (window x + 0.2)
-    return push_sash(obs, +1.0, bar_from_handle=0.026, handle_end_from_goal=-0.04)
+    # handleOpenStart is 2.6 cm left of the bar; the goal is that point at the end of the travel
+    return push_sash(obs, +1.0, bar_from_handle=0.026, handle_end_from_goal=0.0)

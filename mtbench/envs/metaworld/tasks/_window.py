@@ -14,23 +14,20 @@ parameters; the terms are pure torch so that the tests can evaluate them without
 
 from __future__ import annotations
 
-from typing import Literal
-
 import mujoco
 import torch
 
 from ..reward_utils import hamacher_product, tolerance
 from ..scene import SceneSpec, guide_by_joint
-from ..task import Objects, TaskState
+from ..task import Objects, TaskState, offset
 
 # Meta-World's init_config hand_init_pos of both window tasks
 SCENE = SceneSpec("sawyer_window_horizontal.xml", hand_init_pos=(0.0, 0.4, 0.2))
 SLIDE_JOINT = "window_slide"
 WINDOW_BODY = "window"
 SLIDE_TRAVEL = 0.2
-TARGET_RADIUS = 0.05  # Meta-World's TARGET_RADIUS (in_place bound on the x error)
-HANDLE_RADIUS = 0.02  # Meta-World's handle_radius (reach bound)
-SUCCESS_RADIUS = 0.01  # paper-era MTBench ("changed from .05")
+HANDLE_RADIUS = 0.02  # MTBench's and Meta-World's handle_radius (reach bound)
+SUCCESS_RADIUS = 0.01  # paper-era MTBench TARGET_RADIUS ("changed from .05"): in_place bound and success
 
 
 
@@ -39,6 +36,7 @@ class WindowSceneMixin:
     subclass (listed first) that sets ``handle_site_name``."""
 
     handle_site_name: str
+    direction: float  # +1: the sash opens along +x; -1: it closes along -x
     buffers = {"handle_init": (3,)}  # the handle point at the start of the episode
 
     @classmethod
@@ -64,37 +62,27 @@ class WindowSceneMixin:
         return Objects(s.sim.site_xpos[:, self.handle_site])
 
     def after_reset(self, s: TaskState, mask: torch.Tensor) -> None:
-        # the handle point at the start of the episode (kinematics are fresh here)
+        # the handle point at the start of the episode (kinematics are fresh here); the goal (MTBench's target) is
+        # that point moved through the full travel along the task's direction
         self.masked_set(s.buffers["handle_init"], s.obj_pos, mask)
+        self.masked_set(s.goal, offset(s.obj_pos, self.direction * SLIDE_TRAVEL, 0.0, 0.0), mask)
 
 
 def window_reward(tcp: torch.Tensor, handle: torch.Tensor, goal: torch.Tensor, handle_init: torch.Tensor,
-                  init_tcp: torch.Tensor, x_error_init: torch.Tensor | float,
-                  reach_sigmoid: Literal["long_tail", "gaussian"]
-                  ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Meta-World v2 window reward ``10 · H(reach, in_place)`` (H = Hamacher product).
+                  init_tcp: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """MTBench's window reward (before its ``* 0.01``): ``(H(reach, in_place), reach, in_place)``.
 
-    ``in_place = tol(|handle_x − goal_x|, (0, .05), margin |x_error_init − .05|, long_tail)`` and ``reach =
-    tol(‖handle − tcp‖, (0, .02), margin |‖handle_init − tcp_init‖ − .02|, reach_sigmoid)``; window-open uses
-    ``x_error_init = |window_x − goal_x| = 0.2`` and a long-tail reach, window-close ``|handle_init_x − goal_x| =
-    0.21`` and a Gaussian reach. Returns ``(reward, reach, in_place)``.
+    ``in_place = tol(‖handle − goal‖, (0, .01), margin |‖handle_init − goal‖ − .01|, long_tail)`` and ``reach =
+    tol(‖handle − tcp‖, (0, .02), margin |‖handle_init − init_tcp‖ − .02|, gaussian)``; H is the Hamacher product.
+    Both window tasks use it (the goal is the handle point at the end of the travel).
     """
-    x_error = (handle[..., 0] - goal[..., 0]).abs()
-    in_place = tolerance(x_error, bounds=(0.0, TARGET_RADIUS), margin=_abs(x_error_init - TARGET_RADIUS),
-                         sigmoid="long_tail")
-    tcp_to_obj = (handle - tcp).norm(dim=-1)
-    tcp_to_obj_init = (handle_init - init_tcp).norm(dim=-1)
-    reach = tolerance(tcp_to_obj, bounds=(0.0, HANDLE_RADIUS), margin=(tcp_to_obj_init - HANDLE_RADIUS).abs(),
-                      sigmoid=reach_sigmoid)
-    return 10.0 * hamacher_product(reach, in_place), reach, in_place
+    in_place = tolerance((handle - goal).norm(dim=-1), bounds=(0.0, SUCCESS_RADIUS),
+                         margin=((handle_init - goal).norm(dim=-1) - SUCCESS_RADIUS).abs(), sigmoid="long_tail")
+    reach = tolerance((handle - tcp).norm(dim=-1), bounds=(0.0, HANDLE_RADIUS),
+                      margin=((handle_init - init_tcp).norm(dim=-1) - HANDLE_RADIUS).abs(), sigmoid="gaussian")
+    return hamacher_product(reach, in_place), reach, in_place
 
 
-def window_success(handle: torch.Tensor, handle_init: torch.Tensor, direction: float) -> torch.Tensor:
-    """MTBench: ``‖handle − (handle_init + direction · 0.2 x̂)‖ ≤ 0.01`` (the sash slid through its full travel)."""
-    target = torch.stack([handle_init[..., 0] + direction * SLIDE_TRAVEL, handle_init[..., 1],
-                          handle_init[..., 2]], dim=-1)
-    return (handle - target).norm(dim=-1) <= SUCCESS_RADIUS
-
-
-def _abs(x: torch.Tensor | float) -> torch.Tensor | float:
-    return x.abs() if isinstance(x, torch.Tensor) else abs(x)
+def window_success(handle: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
+    """MTBench: ``‖handle − goal‖ ≤ 0.01`` (the sash slid through its full travel)."""
+    return (handle - goal).norm(dim=-1) <= SUCCESS_RADIUS

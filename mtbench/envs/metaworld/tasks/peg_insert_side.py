@@ -11,8 +11,8 @@ from ..task import MetaWorldTask, Objects, TaskState
 from ._grasp import grasped_and_lifted
 
 DIST_SCALE = (1.0, 2.0, 2.0)
-TARGET_RADIUS = 0.05  # MTBench success radius of the scaled distance
-REWARD_RADIUS = 0.07  # Meta-World's TARGET_RADIUS, used in the dense in_place term
+TARGET_RADIUS = 0.05  # MTBench: success radius and in_place bound of the scaled distance
+GRASP_RADIUS = 0.08  # MTBench: TCP-to-peg distance under which a lifted peg counts as held
 
 
 def _scaled(x: torch.Tensor) -> torch.Tensor:
@@ -29,17 +29,17 @@ def peg_insert_side_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open
     ``head`` = ``pegHead``, the box corners = the block's collision-box sites), ``gripper_open`` ``[n]``."""
     tcp_to_obj = (obj - tcp).norm(dim=-1)
     obj_to_target = _scaled(head - goal).norm(dim=-1)
-    in_place = tolerance(obj_to_target, bounds=(0.0, REWARD_RADIUS), margin=_scaled(head_init - goal).norm(dim=-1),
+    in_place = tolerance(obj_to_target, bounds=(0.0, TARGET_RADIUS), margin=_scaled(head_init - goal).norm(dim=-1),
                          sigmoid="long_tail")
     collision_boxes = hamacher_product(rect_prism_tolerance(head, brc_box_2, tlc_box_2),
                                        rect_prism_tolerance(head, brc_box_1, tlc_box_1))
     in_place = hamacher_product(in_place, collision_boxes)
     grasp = gripper_caging_reward(
-        action, obj, obj_radius=0.0075, pad_success_thresh=0.03, object_reach_radius=0.01, xz_thresh=0.005,
+        action, obj, obj_radius=0.02, pad_success_thresh=0.05, object_reach_radius=0.0, xz_thresh=0.005,
         left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos,
-        init_tcp=init_tcp, high_density=True,
+        init_tcp=init_tcp, medium_density=True,
     )
-    lifted = grasped_and_lifted(tcp_to_obj, gripper_open, obj[:, 2], obj_init_pos[:, 2], 0.08)
+    lifted = grasped_and_lifted(tcp_to_obj, gripper_open, obj[:, 2], obj_init_pos[:, 2], GRASP_RADIUS)
     grasp = torch.where(lifted, 1.0, grasp)
     reward = hamacher_product(grasp, in_place)
     return torch.where(lifted, reward + 1.0 + 5.0 * in_place, reward)
@@ -62,20 +62,19 @@ class PegInsertSide(MetaWorldTask):
     Object observation: the ``pegGrasp`` site (peg body + (0.03, 0, 0.01)) and the peg's quaternion (wxyz);
     no second object (as Meta-World; MTBench observed the block there).
 
-    Reward: Meta-World v2 ``compute_reward`` without the success override (0..~7), with
+    Dense reward (paper-era MTBench ``task_fns/peg_insert_side.py``, before its ``* 0.01``; 0..7), with
     ``d = ‖(pegHead − goal)·(1, 2, 2)‖``::
 
-        in_place = hamacher(tolerance(d, (0, 0.07), margin=‖(pegHead_init − goal)·(1, 2, 2)‖, long_tail),
+        in_place = hamacher(tolerance(d, (0, 0.05), margin=‖(pegHead_init − goal)·(1, 2, 2)‖, long_tail),
                             hamacher(rect_prism(pegHead, box 2), rect_prism(pegHead, box 1)))
-        grasp = gripper_caging(obj_radius=0.0075, pad_success_thresh=0.03, object_reach_radius=0.01,
-                               xz_thresh=0.005, high_density=True),  = 1 when lifted
-        lifted = ‖tcp − pegGrasp‖ < 0.08 and obs[3] > 0 and pegGrasp_z − 0.01 > peg_init_z
+        grasp = gripper_caging(obj_radius=0.02, pad_success_thresh=0.05, object_reach_radius=0,
+                               xz_thresh=0.005, medium_density=True),  = 1 when lifted
+        lifted = ‖tcp − pegGrasp‖ < 0.08 and the gripper not fully closed and pegGrasp_z − 0.01 > peg_init_z
         r = hamacher(grasp, in_place) + lifted·(1 + 5·in_place)
 
     The collision boxes are the two regions in front of the block above and below the hole (sites of the block).
-    Meta-World takes ``pegHead_init`` *before* moving the peg to its new start (the previous episode's head
-    position); we use the head position at the new start. The ``(0, 0.07)`` bound of ``in_place`` is
-    Meta-World's (MTBench: 0.05).
+    ``pegHead_init`` is the head position at the new start. (Meta-World v2 uses a 0.07 bound and
+    ``obj_radius=0.0075, pad_success_thresh=0.03, high_density`` caging.)
 
     Success (paper-era MTBench): ``d ≤ 0.05`` (MTBench scales its frame's (x, y, z) by (2, 1, 2), i.e. Meta-World
     (x, y, z) by (1, 2, 2), the same ``d``; Meta-World: ``d ≤ 0.07``). MTBench's own target was 6 cm shallower

@@ -16,19 +16,19 @@ TCP_RADIUS = 0.02  # MTBench success: hand still at the puck
 def push_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: torch.Tensor, tcp: torch.Tensor,
                 left_pad: torch.Tensor, right_pad: torch.Tensor, goal: torch.Tensor, obj_init_pos: torch.Tensor,
                 init_tcp: torch.Tensor) -> torch.Tensor:
-    """Dense reward ``[n]`` (see :class:`Push`); points ``[n, 3]``, ``gripper_open`` ``[n]``, actions ``[n, 4]``."""
+    """MTBench's dense term (see :class:`Push`); points ``[n, 3]``, ``gripper_open`` ``[n]``, actions ``[n, 4]``."""
     tcp_to_obj = (obj - tcp).norm(dim=-1)
     target_to_obj = (obj - goal).norm(dim=-1)
     in_place = tolerance(target_to_obj, bounds=(0.0, TARGET_RADIUS),
                          margin=(obj_init_pos - goal).norm(dim=-1), sigmoid="long_tail")
     grasp = gripper_caging_reward(
-        action, obj, obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
+        action, obj, obj_radius=0.0, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
         left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos,
-        init_tcp=init_tcp, high_density=True,
+        init_tcp=init_tcp, medium_density=True,
     )
     reward = 2.0 * grasp
     near = (tcp_to_obj < TCP_RADIUS) & (gripper_open > 0)
-    return torch.where(near, 1.0 + 2.0 * reward + 5.0 * in_place, reward)
+    return torch.where(near, reward + 1.0 + 5.0 * in_place, reward)
 
 
 def push_success(obj: torch.Tensor, gripper_open: torch.Tensor, tcp: torch.Tensor,
@@ -46,15 +46,14 @@ class Push(FreeObjectTask):
     z by the puck's z); pairs closer than 15 cm in xy are resampled (up to 8 times, Meta-World loops until they
     are not). Object observation: puck body position and quaternion (wxyz); no second object.
 
-    Reward: Meta-World v2 ``compute_reward`` without the success override (0..10)::
+    Dense reward (paper-era MTBench ``task_fns/push.py``, before its ``* 0.01``; 0..8)::
 
         in_place = tolerance(‖obj − goal‖, (0, 0.05), margin=‖obj_init − goal‖, long_tail)
-        grasp = gripper_caging(obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01,
-                               xz_thresh=0.005, high_density=True)
-        r = 2·grasp;  if ‖tcp − obj‖ < 0.02 and gripper_open > 0:  r = 1 + 2·r + 5·in_place
+        grasp = gripper_caging(obj_radius=0, pad_success_thresh=0.05, object_reach_radius=0.01,
+                               xz_thresh=0.005, medium_density=True)
+        r = 2·grasp;  if ‖tcp − obj‖ < 0.02 and gripper_open > 0:  r += 1 + 5·in_place
 
-    (Meta-World's ``reward += 1.0 + reward + 5·in_place`` doubles the caging term, kept as is.) MTBench's port
-    used ``obj_radius=0, medium_density=True`` and no doubling; we keep Meta-World's formula.
+    (Meta-World v2 uses ``obj_radius=0.015, high_density`` and doubles the caging term.)
 
     Success (paper-era MTBench): ``‖obj − goal‖ < 0.05`` and ``‖tcp − obj‖ < 0.02`` and the gripper not fully
     closed (the hand must still be at the puck); Meta-World only asks ``‖obj − goal‖ ≤ 0.05``. All distances are

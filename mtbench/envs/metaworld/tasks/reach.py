@@ -1,4 +1,4 @@
-"""Reach: move the TCP to a goal in the air (Meta-World ``reach-v3``, MTBench ``task_fns/reach.py``)."""
+"""Reach: move the TCP to a goal in the air (MTBench ``task_fns/reach.py``; Meta-World ``reach-v3``)."""
 
 from __future__ import annotations
 
@@ -12,10 +12,10 @@ TARGET_RADIUS = 0.05
 
 
 def reach_reward(tcp: torch.Tensor, goal: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``10 · tolerance(‖tcp − goal‖, (0, 0.05), margin=‖init_tcp − goal‖, long_tail)`` (Meta-World v2)."""
-    in_place = tolerance((tcp - goal).norm(dim=-1), bounds=(0.0, TARGET_RADIUS),
-                         margin=(init_tcp - goal).norm(dim=-1), sigmoid="long_tail")
-    return 10.0 * in_place
+    """MTBench's dense term (before its ``* 0.01``): ``in_place = tolerance(‖tcp − goal‖, (0, 0.05),
+    margin=‖init_tcp − goal‖, long_tail)``, in [0, 1]."""
+    return tolerance((tcp - goal).norm(dim=-1), bounds=(0.0, TARGET_RADIUS), margin=(init_tcp - goal).norm(dim=-1),
+                     sigmoid="long_tail")
 
 
 def reach_success(tcp: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -27,10 +27,12 @@ class Reach(FreeObjectTask):
     """Move the TCP into a 5 cm ball around the goal.
 
     * Reset: the (unused) puck at x ~ U[-0.1, 0.1], y ~ U[0.6, 0.7], z = 0.02; goal x ~ U[-0.1, 0.1],
-      y ~ U[0.8, 0.9], z ~ U[0.05, 0.3] (Meta-World reach-v3 ranges in Meta-World's frame: y forward, table top at
-      z = 0; MTBench's frame is x_mtb = y − 0.6, y_mtb = −x, z_mtb = z + 1.027, same ranges).
-    * Objects: the puck's pose (as Meta-World reports it).
-    * Dense reward: Meta-World's ``10 · in_place``; ``dense_scale`` 0.01.
+      y ~ U[0.8, 0.9], z ~ U[0.05, 0.3]. These are MTBench's ranges (obj x_mtb [0, .1], y_mtb [-.1, .1]; goal
+      x_mtb [.2, .3], z_mtb [T + .05, T + .3]) in Meta-World's frame (``x_mtb = y − 0.6``, ``y_mtb = −x``,
+      ``z_mtb = z + 1.027``), which equal Meta-World reach-v3's.
+    * Objects: the puck's pose (as MTBench and Meta-World report it).
+    * Dense reward (paper-era MTBench): ``in_place`` in [0, 1], times ``dense_scale`` 0.01 and ``reward_scale``.
+      (Meta-World's v2 reward is ``10 · in_place``.)
     * Success: ``‖tcp − goal‖ ≤ 0.05`` (MTBench and Meta-World).
     """
 
