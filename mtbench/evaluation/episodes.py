@@ -1,0 +1,132 @@
+"""Run full episodes of every task of an mtbench env with a policy and read the per-task statistics."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, Callable
+
+import torch
+from tensordict import TensorDictBase
+
+STAT_KEYS = ("episodes", "success", "return", "length")
+# optional per-task counters an env may report besides STAT_KEYS (summed and reported when present)
+EXTRA_STAT_KEYS = ("unhealthy", "nonfinite_actions")
+
+
+@dataclasses.dataclass
+class EvalResult:
+    """Per-task results of one evaluation (``mode`` ``"sampled"`` or ``"deterministic"``).
+
+    ``success`` is the env's success statistic per finished episode: for Meta-World the fraction of episodes that
+    succeeded at any step (the paper's metric); an env whose ``pop_episode_stats()["success"]`` sums another
+    quantity (e.g. a progress in [0, 1]) names it in ``env.success_metric``, kept in ``metric``.
+    """
+
+    mode: str
+    metric: str
+    task_names: list[str]
+    episodes: list[int]
+    success: list[float]
+    returns: list[float]
+    lengths: list[float]
+    extra: dict[str, list[float]] = dataclasses.field(default_factory=dict)
+
+    def _mean(self, values: list[float]) -> float:
+        valid = [v for v, n in zip(values, self.episodes) if n > 0]
+        return sum(valid) / len(valid) if valid else math.nan
+
+    @property
+    def mean_success(self) -> float:
+        """Mean over the tasks (with finished episodes) of the per-task success."""
+        return self._mean(self.success)
+
+    @property
+    def mean_return(self) -> float:
+        return self._mean(self.returns)
+
+    @property
+    def mean_length(self) -> float:
+        return self._mean(self.lengths)
+
+    def as_dict(self) -> dict[str, Any]:
+        per_task = {
+            name: {"episodes": self.episodes[i], self.metric: self.success[i], "return": self.returns[i],
+                   "length": self.lengths[i], **{k: v[i] for k, v in self.extra.items()}}
+            for i, name in enumerate(self.task_names)
+        }
+        return {"mode": self.mode, "metric": self.metric, "per_task": per_task,
+                "mean": {self.metric: self.mean_success, "return": self.mean_return, "length": self.mean_length,
+                         "episodes": sum(self.episodes)}}
+
+
+def worlds_per_task(env: Any) -> list[int]:
+    """Worlds of each task block (``env.task_counts``, or counted from ``env.task_id``)."""
+    counts = getattr(env, "task_counts", None)
+    if counts is None:
+        counts = torch.bincount(env.task_id.reshape(-1).cpu(), minlength=int(env.num_tasks)).tolist()
+    return [int(c) for c in counts]
+
+
+def passes_needed(env: Any, episodes: int) -> int:
+    """Passes of one episode per world so that every task finishes at least ``episodes`` episodes."""
+    return max(1, math.ceil(episodes / min(worlds_per_task(env))))
+
+
+def run_episodes(
+    env: Any,
+    policy: Callable[[TensorDictBase, bool], torch.Tensor],
+    *,
+    episodes: int,
+    deterministic: bool,
+    seed: int,
+    on_step: Callable[[int, int], None] | None = None,
+) -> EvalResult:
+    """Evaluate ``policy`` for at least ``episodes`` full episodes per task.
+
+    Every pass resets all worlds (the env must start them at step 0, i.e. ``random_start_progress=False``) and
+    runs ``env.max_episode_steps`` steps: each world finishes exactly one episode (more only if the env ended
+    one early, e.g. after a physics failure). With ``episodes`` worlds per task one pass suffices; otherwise
+    passes repeat until every task has ``episodes`` episodes (tasks with more worlds finish more). The env's
+    reset sampler and torch's generator are seeded with ``seed`` first, so two evaluations with the same seed
+    see the same initial worlds. ``on_step(pass, t)`` is called before the action of step ``t`` (e.g. to render
+    the current state). The statistics stay on the device until the end (one host copy).
+    """
+    if episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {episodes}")
+    for attr in ("num_tasks", "task_names", "pop_episode_stats", "max_episode_steps"):
+        if not hasattr(env, attr):
+            raise TypeError(f"env {type(env).__name__} lacks '{attr}' (mtbench env contract)")
+    env.set_seed(int(seed))
+    torch.manual_seed(int(seed))
+    steps = int(env.max_episode_steps)
+    totals: dict[str, torch.Tensor] = {}
+    for p in range(passes_needed(env, episodes)):
+        td = env.reset()
+        env.pop_episode_stats()  # nothing from before this pass
+        for t in range(steps):
+            if on_step is not None:
+                on_step(p, t)
+            td.set("action", policy(td, deterministic))
+            _, td = env.step_and_maybe_reset(td)
+        stats = env.pop_episode_stats()
+        for key in (*STAT_KEYS, *EXTRA_STAT_KEYS):
+            if key in stats.keys():
+                value = stats.get(key).detach().double()
+                totals[key] = value if key not in totals else totals[key] + value
+    host = {k: v.cpu() for k, v in totals.items()}  # the one host sync
+    count = host["episodes"]
+    denom = torch.where(count > 0, count, torch.full_like(count, math.nan))
+    return EvalResult(
+        mode="deterministic" if deterministic else "sampled",
+        metric=str(getattr(env, "success_metric", "success")),
+        task_names=list(env.task_names),
+        episodes=[int(round(c)) for c in count.tolist()],
+        success=(host["success"] / denom).tolist(),
+        returns=(host["return"] / denom).tolist(),
+        lengths=(host["length"] / denom).tolist(),
+        extra={k: host[k].tolist() for k in EXTRA_STAT_KEYS if k in host},
+    )
+
+
+__all__ = ["EXTRA_STAT_KEYS", "EvalResult", "STAT_KEYS", "passes_needed", "run_episodes", "worlds_per_task"]

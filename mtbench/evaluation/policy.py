@@ -1,0 +1,136 @@
+"""Rebuild what a checkpoint needs for evaluation: the env (fresh worlds), the actor and the frozen normaliser."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any, Mapping
+
+import torch
+from omegaconf import DictConfig, OmegaConf
+from tensordict import TensorDict, TensorDictBase
+from tensordict.nn import InteractionType, set_interaction_type
+from torch import nn
+
+from ..trainer.actor_critic import GaussianPolicyHead, make_actor
+from ..trainer.checkpoint import load_checkpoint
+from ..trainer.trainer import make_env_from_cfg
+from ..transforms import PerTaskObservationNorm
+from .args import EvalArgumentError
+
+ACTOR_PREFIX = "actor_network_params."
+
+
+def read_checkpoint(path: Any) -> dict[str, Any]:
+    """``load_checkpoint(path)`` with one clear error for anything that is not a training checkpoint."""
+    if Path(path).is_dir():
+        raise EvalArgumentError(f"checkpoint={str(path)!r} is a directory; give a checkpoint file") from None
+    try:
+        state = load_checkpoint(path, map_location="cpu")
+    except FileNotFoundError:
+        raise EvalArgumentError(f"checkpoint={str(path)!r}: no such file") from None
+    except Exception as err:  # unpickling errors, truncated files, other versions, ...
+        raise EvalArgumentError(
+            f"checkpoint={str(path)!r} cannot be read as a checkpoint written by Trainer.save "
+            f"({type(err).__name__}: {err})"
+        ) from None
+    missing = [k for k in ("config", "loss") if k not in state]
+    if missing:
+        raise EvalArgumentError(f"checkpoint={str(path)!r} lacks {missing}: not a checkpoint written by Trainer.save")
+    return state
+
+
+def checkpoint_num_tasks(state: Mapping[str, Any]) -> int | None:
+    """Number of tasks of the checkpointed run, from the env state or the per-task statistics it holds."""
+    extra = (state.get("env") or {}).get("_extra_state")
+    if isinstance(extra, Mapping) and extra.get("task_names"):
+        return len(extra["task_names"])
+    for part, key in (("obs_norm", "stats.count"), ("loss", "value_norm.count")):
+        tensor = (state.get(part) or {}).get(key)
+        if isinstance(tensor, torch.Tensor) and tensor.ndim == 1:
+            return int(tensor.numel())
+    return None
+
+
+def eval_env_config(config: Mapping[str, Any], num_envs: int) -> DictConfig:
+    """The run's ``env`` config with ``num_envs`` worlds and no staggered start (every world starts its first
+    episode at step 0: ``random_start_progress=False``)."""
+    env_cfg = OmegaConf.create(copy.deepcopy(OmegaConf.to_container(OmegaConf.create(dict(config)), resolve=True)))
+    env_cfg.num_envs = int(num_envs)
+    if env_cfg.get("overrides") is None:
+        env_cfg.overrides = {}
+    env_cfg.overrides.random_start_progress = False
+    return env_cfg
+
+
+def make_eval_env(config: Mapping[str, Any], num_envs: int, device: torch.device, seed: int) -> Any:
+    """``make_env_from_cfg`` on the run's env config with fresh worlds (``seed``) and no staggered start."""
+    env = make_env_from_cfg(eval_env_config(config, num_envs), device, seed)
+    # TorchRL reads the native-autoreset flag from the instance __dict__ (see mtbench.trainer)
+    if getattr(type(env), "_torchrl_native_autoreset", False):
+        env.__dict__["_torchrl_native_autoreset"] = True
+    return env
+
+
+class EvalPolicy(nn.Module):
+    """The trained actor behind the frozen per-task observation normaliser.
+
+    ``forward(td, deterministic)`` returns the action for ``td["observation"]`` / ``td["task_id"]``:
+    sampled from the Gaussian policy (as in training and in the paper's evaluation) or its mean clamped to
+    [-1, 1] (``deterministic=True``). The input tensordict is not modified.
+    """
+
+    def __init__(self, actor: nn.Module, obs_norm: PerTaskObservationNorm | None) -> None:
+        super().__init__()
+        self.actor = actor
+        self.obs_norm = obs_norm
+        if obs_norm is not None:
+            obs_norm.freeze()
+        self.eval()
+
+    @property
+    def head(self) -> GaussianPolicyHead:
+        """The Gaussian head (its ``log_std`` parameter sets the sampling noise)."""
+        return next(m for m in self.actor.modules() if isinstance(m, GaussianPolicyHead))
+
+    @torch.no_grad()
+    def forward(self, td: TensorDictBase, deterministic: bool = False) -> torch.Tensor:
+        obs, task_id = td.get("observation"), td.get("task_id")
+        if self.obs_norm is not None:
+            obs = self.obs_norm.normalize(obs, task_id)  # frozen: no statistics update
+        inp = TensorDict({"observation": obs, "task_id": task_id}, batch_size=td.batch_size, device=td.device)
+        kind = InteractionType.DETERMINISTIC if deterministic else InteractionType.RANDOM
+        with set_interaction_type(kind):
+            action = self.actor(inp).get("action")
+        return action.clamp(-1.0, 1.0) if deterministic else action
+
+
+def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> EvalPolicy:
+    """Actor (``make_actor`` with the run's arch) and observation normaliser of a checkpoint, for ``env``."""
+    cfg = OmegaConf.create(state["config"])
+    num_tasks = int(env.num_tasks)
+    obs_dim = int(env.observation_spec["observation"].shape[-1])
+    action_dim = int(env.action_spec.shape[-1])
+    descriptions = getattr(env, "task_descriptions", None)
+    actor = make_actor(
+        cfg.get("arch"), obs_dim=obs_dim, action_dim=action_dim, num_tasks=num_tasks,
+        task_descriptions=list(descriptions) if descriptions is not None else None, device=device,
+    )
+    weights = {k[len(ACTOR_PREFIX):]: v for k, v in state["loss"].items() if k.startswith(ACTOR_PREFIX)}
+    try:
+        actor.load_state_dict(weights, strict=True)
+    except RuntimeError as err:
+        raise EvalArgumentError(
+            f"the checkpoint's actor does not fit the rebuilt one (arch={cfg.get('arch', {}).get('name')!r}, "
+            f"obs_dim={obs_dim}, action_dim={action_dim}): {err}"
+        ) from None
+    obs_norm = None
+    norm_state = state.get("obs_norm")
+    if (cfg.get("loss") or {}).get("normalize_input", True) and norm_state is not None:
+        obs_norm = PerTaskObservationNorm(num_tasks, state_dim=int(norm_state["stats.mean"].shape[-1]), device=device)
+        obs_norm.load_state_dict(norm_state)
+    return EvalPolicy(actor, obs_norm).to(device)
+
+
+__all__ = ["ACTOR_PREFIX", "EvalPolicy", "checkpoint_num_tasks", "eval_env_config", "load_policy",
+           "make_eval_env", "read_checkpoint"]

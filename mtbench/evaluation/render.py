@@ -1,0 +1,230 @@
+"""Batch rendering of an env's worlds with MuJoCo Warp's ray tracer (no OpenGL; Warp's CPU device or CUDA).
+
+MuJoCo Warp 4.0.0 renders the worlds of one ``mjw.Model``/``mjw.Data`` pair with a BVH ray tracer
+(``mjw.create_render_context`` -> ``mjw.refit_bvh`` -> ``mjw.render`` -> ``mjw.get_rgb``). It runs on the same
+Warp device as the physics, so the same code renders on the CPU and on the GPU, straight from the simulator's
+state (no copy to MuJoCo C, no GL context).
+
+:class:`WorldRenderer` renders the first ``nworld`` worlds of one :class:`~mtbench.sim.WarpSim` through a
+:class:`CameraSpec` (a look-at camera, fixed or following a body). The simulator's own data is only read: the
+renderer hands MuJoCo Warp a shallow copy of ``mjw.Data`` whose world count is ``nworld`` and whose camera pose
+arrays are the renderer's own, so the env's camera and light state is never written.
+:class:`EnvRenderer` does this for every task block of an mtbench env.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from contextlib import nullcontext
+from typing import Any, Mapping
+
+import mujoco
+import mujoco_warp as mjw
+import torch
+import warp as wp
+
+from ..sim import WarpSim
+
+
+@dataclasses.dataclass(frozen=True)
+class CameraSpec:
+    """A look-at camera.
+
+    Args:
+        eye: camera position (m). With ``track_body`` set, an offset from that body's position in each world.
+        target: point the camera looks at (same convention as ``eye``).
+        up: world direction that appears upwards in the image (must not be parallel to ``target - eye``).
+        track_body: name of a body to follow (``eye``/``target`` become offsets from its position; the camera
+            keeps its orientation, like MuJoCo's ``trackcom`` mode), or ``None`` for a fixed camera.
+    """
+
+    eye: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    track_body: str | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("eye", "target", "up"):
+            value = tuple(float(v) for v in getattr(self, name))
+            if len(value) != 3 or not all(math.isfinite(v) for v in value):
+                raise ValueError(f"CameraSpec.{name} must be 3 finite numbers, got {getattr(self, name)!r}")
+            object.__setattr__(self, name, value)
+        fwd = torch.tensor(self.target) - torch.tensor(self.eye)
+        if float(fwd.norm()) < 1e-9:
+            raise ValueError("CameraSpec.eye and CameraSpec.target coincide")
+        if float(torch.linalg.cross(fwd, torch.tensor(self.up)).norm()) < 1e-6 * float(fwd.norm()):
+            raise ValueError(f"CameraSpec.up {self.up} is parallel to the viewing direction {tuple(fwd.tolist())}")
+
+    @classmethod
+    def from_any(cls, value: CameraSpec | Mapping[str, Any]) -> CameraSpec:
+        """A ``CameraSpec`` or a mapping of its fields (e.g. an env's ``video_camera`` attribute)."""
+        return value if isinstance(value, CameraSpec) else cls(**dict(value))
+
+
+# Meta-World (Panda at (0, 0.15, 0) facing +y, table top at z = 0, objects and goals at y in [0.4, 0.95]):
+# from the far right corner of the table, above it, looking at the middle of the workspace: the whole arm, the
+# objects and the goal are in view for every MT10 task.
+METAWORLD_CAMERA = CameraSpec(eye=(1.3, 1.2, 1.0), target=(-0.1, 0.5, 0.1))
+
+# colour of rays that hit nothing (RGBA in [0, 1]): a light grey-blue sky instead of MuJoCo Warp's black
+BACKGROUND = (0.62, 0.70, 0.78, 1.0)
+
+
+def look_at(eye: torch.Tensor, target: torch.Tensor, up: torch.Tensor) -> torch.Tensor:
+    """MuJoCo camera orientation ``[..., 3, 3]`` (columns: right, up, backward; the camera looks along -z)."""
+    fwd = torch.nn.functional.normalize(target - eye, dim=-1)
+    right = torch.nn.functional.normalize(torch.linalg.cross(fwd, up.expand_as(fwd)), dim=-1)
+    cam_up = torch.linalg.cross(right, fwd)
+    return torch.stack([right, cam_up, -fwd], dim=-1)
+
+
+class WorldRenderer:
+    """RGB frames ``[nworld, H, W, 3]`` (uint8, on the sim's device) of the first ``nworld`` worlds of ``sim``.
+
+    Args:
+        sim: the block's simulator (its current state is rendered: call after the env step).
+        nworld: how many worlds (the first ones of the block) to render.
+        width, height: image size in pixels.
+        camera: the camera (:class:`CameraSpec`).
+        shadows: ray-traced shadows (costs a second ray per light and pixel).
+
+    The model must have at least one camera: MuJoCo Warp renders through model cameras. The renderer uses the
+    projection (field of view) of camera 0 and replaces its pose by ``camera`` in its own copy of the camera
+    arrays (the env's model and data are not changed).
+    """
+
+    def __init__(
+        self,
+        sim: WarpSim,
+        nworld: int,
+        width: int,
+        height: int,
+        camera: CameraSpec,
+        *,
+        shadows: bool = True,
+    ) -> None:
+        if not 1 <= nworld <= sim.nworld:
+            raise ValueError(f"nworld must be in [1, {sim.nworld}] (the block's worlds), got {nworld}")
+        if width < 1 or height < 1:
+            raise ValueError(f"image size must be positive, got {width}x{height}")
+        mjm = sim.mjm
+        if mjm.ncam < 1:
+            raise ValueError(
+                "the model has no camera: MuJoCo Warp's renderer draws through model cameras, add one "
+                "(<camera name=\"eval\" pos=\"0 0 1\"/>) to the scene"
+            )
+        self.sim = sim
+        self.nworld = int(nworld)
+        self.width, self.height = int(width), int(height)
+        self.camera = camera
+        self._track_body = -1
+        if camera.track_body is not None:
+            self._track_body = mujoco.mj_name2id(mjm, mujoco.mjtObj.mjOBJ_BODY, camera.track_body)
+            if self._track_body < 0:
+                bodies = [mujoco.mj_id2name(mjm, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(mjm.nbody)]
+                raise ValueError(f"unknown CameraSpec.track_body {camera.track_body!r}; valid choices: {bodies}")
+        self.device = sim.device
+        with wp.ScopedDevice(sim.wp_device):
+            self._rc = mjw.create_render_context(
+                mjm, self.nworld, (self.width, self.height), render_rgb=True, render_depth=False,
+                render_seg=False, use_shadows=shadows, cam_active=[0], background_color=BACKGROUND,
+            )
+            n = self.nworld
+            self._cam_xpos = wp.zeros((n, mjm.ncam), dtype=wp.vec3)
+            self._cam_xmat = wp.zeros((n, mjm.ncam), dtype=wp.mat33)
+            self._rgb = wp.zeros((n, self.height, self.width), dtype=wp.vec3)
+        # the env's data, seen as `nworld` worlds with the renderer's own camera poses (arrays are shared)
+        self._data = dataclasses.replace(sim.data, nworld=n, cam_xpos=self._cam_xpos, cam_xmat=self._cam_xmat)
+        self._cam_xpos_t = wp.to_torch(self._cam_xpos)
+        self._cam_xmat_t = wp.to_torch(self._cam_xmat)
+        self._rgb_t = wp.to_torch(self._rgb)  # [n, H, W, 3] float in [0, 1]
+        dev = self.device
+        self._eye = torch.tensor(camera.eye, dtype=torch.float32, device=dev)
+        self._target = torch.tensor(camera.target, dtype=torch.float32, device=dev)
+        self._up = torch.tensor(camera.up, dtype=torch.float32, device=dev)
+
+    def _place_camera(self) -> None:
+        eye, target = self._eye.expand(self.nworld, 3), self._target.expand(self.nworld, 3)
+        if self._track_body >= 0:
+            base = self.sim.xpos[: self.nworld, self._track_body]
+            eye, target = base + eye, base + target
+        self._cam_xpos_t[:, 0] = eye
+        self._cam_xmat_t[:, 0] = look_at(eye, target, self._up)
+
+    def render(self) -> torch.Tensor:
+        """Render the current state: uint8 ``[nworld, H, W, 3]`` on the sim's device (no host sync)."""
+        self._place_camera()
+        stream = None
+        if self.device.type == "cuda":  # after the env's work, which is joined into torch's current stream
+            stream = wp.stream_from_torch(torch.cuda.current_stream(self.device))
+        with wp.ScopedDevice(self.sim.wp_device), wp.ScopedStream(stream) if stream is not None else nullcontext():
+            mjw.refit_bvh(self.sim.model, self._data, self._rc)
+            mjw.render(self.sim.model, self._data, self._rc)
+            mjw.get_rgb(self._rc, 0, self._rgb)
+        return (self._rgb_t.clamp(0.0, 1.0) * 255.0).round_().to(torch.uint8)
+
+
+
+def block_sims(env: Any) -> list[WarpSim]:
+    """The :class:`~mtbench.sim.WarpSim` of every task block of an mtbench env (``env.blocks[i][1].sim``)."""
+    blocks = getattr(env, "blocks", None)
+    if blocks is None:
+        raise TypeError(f"env {type(env).__name__} has no 'blocks' (mtbench env contract): cannot render it")
+    sims = []
+    for i, block in enumerate(blocks):
+        state = block[1] if isinstance(block, (tuple, list)) else block
+        sim = getattr(state, "sim", None)
+        if not isinstance(sim, WarpSim):
+            raise TypeError(f"block {i} of {type(env).__name__} has no WarpSim at .sim: cannot render it")
+        sims.append(sim)
+    return sims
+
+
+def env_camera(env: Any) -> CameraSpec:
+    """The env's ``video_camera`` (a :class:`CameraSpec` or a mapping of its fields) or :data:`METAWORLD_CAMERA`."""
+    spec = getattr(env, "video_camera", None)
+    return METAWORLD_CAMERA if spec is None else CameraSpec.from_any(spec)
+
+
+class EnvRenderer:
+    """Frames of the first ``worlds_per_task`` worlds of every task block of an mtbench env.
+
+    ``render()`` returns uint8 ``[num_tasks, worlds_per_task, H, W, 3]`` on the env's device.
+    """
+
+    def __init__(
+        self,
+        env: Any,
+        width: int,
+        height: int,
+        *,
+        worlds_per_task: int = 1,
+        camera: CameraSpec | None = None,
+        shadows: bool = True,
+    ) -> None:
+        sims = block_sims(env)
+        fewest = min(s.nworld for s in sims)
+        if not 1 <= worlds_per_task <= fewest:
+            raise ValueError(f"worlds_per_task must be in [1, {fewest}] (the smallest task block), "
+                             f"got {worlds_per_task}")
+        camera = camera if camera is not None else env_camera(env)
+        self.renderers = [WorldRenderer(s, worlds_per_task, width, height, camera, shadows=shadows) for s in sims]
+
+    def render(self) -> torch.Tensor:
+        return torch.stack([r.render() for r in self.renderers])
+
+
+def tile(frames: torch.Tensor, grid: int) -> torch.Tensor:
+    """``[..., grid * grid, H, W, C]`` -> ``[..., grid * H, grid * W, C]`` (row-major tiles)."""
+    *lead, n, h, w, c = frames.shape
+    if n != grid * grid:
+        raise ValueError(f"{n} images do not fill a {grid}x{grid} grid")
+    x = frames.reshape(*lead, grid, grid, h, w, c)
+    nd = len(lead)
+    x = x.permute(*range(nd), nd, nd + 2, nd + 1, nd + 3, nd + 4)
+    return x.reshape(*lead, grid * h, grid * w, c)
+
+
+__all__ = ["CameraSpec", "EnvRenderer", "METAWORLD_CAMERA", "WorldRenderer", "block_sims",
+           "env_camera", "look_at", "tile"]

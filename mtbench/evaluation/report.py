@@ -1,0 +1,85 @@
+"""The per-task evaluation table (markdown, also printed) and the JSON report."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Sequence
+
+from .episodes import EvalResult
+
+
+def _pct(value: float) -> str:
+    return "n/a" if value != value else f"{100 * value:.1f}%"
+
+
+def _num(value: float, digits: int = 1) -> str:
+    return "n/a" if value != value else f"{value:.{digits}f}"
+
+
+def markdown_table(results: Sequence[EvalResult]) -> str:
+    """One row per task and a mean row; per evaluation (sampled, deterministic) a success, return and length
+    column, then the finished episodes (one column when both evaluations have the same counts)."""
+    if not results:
+        raise ValueError("no evaluation results")
+    names = results[0].task_names
+    metric = results[0].metric
+    header = ["task"]
+    for r in results:
+        header += [f"{metric} ({r.mode})", f"return ({r.mode})", f"length ({r.mode})"]
+    same_counts = all(r.episodes == results[0].episodes for r in results)
+    header += ["episodes"] if same_counts else [f"episodes ({r.mode})" for r in results]
+    counted = results[:1] if same_counts else results
+    align = ["---"] + ["---:"] * (len(header) - 1)
+    rows = []
+    for i, name in enumerate(names):
+        row = [name]
+        for r in results:
+            row += [_pct(r.success[i]), _num(r.returns[i]), _num(r.lengths[i])]
+        row += [str(r.episodes[i]) for r in counted]
+        rows.append(row)
+    mean = ["**mean**"]
+    for r in results:
+        mean += [f"**{_pct(r.mean_success)}**", _num(r.mean_return), _num(r.mean_length)]
+    mean += [str(sum(r.episodes)) for r in counted]
+    rows.append(mean)
+    widths = [max(len(str(x)) for x in col) for col in zip(header, align, *rows)]
+
+    def line(cells: Sequence[str]) -> str:
+        return "| " + " | ".join(str(c).ljust(w) for c, w in zip(cells, widths)) + " |"
+
+    return "\n".join([line(header), line(align), *(line(r) for r in rows)])
+
+
+def _finite(value: Any) -> Any:
+    """JSON has no NaN: non-finite floats become ``None``."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+def write_reports(out: Path, results: Sequence[EvalResult], info: dict[str, Any]) -> tuple[Path, Path]:
+    """``out/eval.md`` (what was evaluated + the table) and ``out/eval.json`` (``info`` + per-evaluation results)."""
+    out.mkdir(parents=True, exist_ok=True)
+    md = out / "eval.md"
+    lines = ["# Evaluation", ""]
+    for key in ("checkpoint", "env", "arch", "loss", "iteration", "frames", "device", "num_envs", "seed",
+                "episodes_requested"):
+        if key in info:
+            lines.append(f"- {key}: `{info[key]}`")
+    lines += ["", markdown_table(results), ""]
+    if info.get("videos"):
+        lines += ["Videos:", ""] + [f"- {task}: `{path}`" for task, path in info["videos"].items()] + [""]
+    md.write_text("\n".join(lines))
+    js = out / "eval.json"
+    payload = {**info, "evaluations": {r.mode: r.as_dict() for r in results}}
+    js.write_text(json.dumps(_finite(payload), indent=2, default=str) + "\n")
+    return md, js
+
+
+__all__ = ["markdown_table", "write_reports"]

@@ -1,0 +1,229 @@
+"""examples/eval.py: checkpoint -> per-task table (sampled and deterministic policy), videos, MCAP log, errors.
+
+A tiny MT-PPO run on the CPU (``env=cpu_small`` with 2 worlds per task, 30-step episodes, one iteration) provides
+the checkpoint. Evaluations run 2 episodes per task.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+from tensordict import TensorDict
+
+from envs_for_tests import SyntheticMTEnv
+from mtbench.evaluation import EvalArgumentError, evaluate, main, parse_args, run_episodes
+from mtbench.evaluation.policy import read_checkpoint
+from mtbench.evaluation.render import BACKGROUND, tile
+from mtbench.evaluation.video import read_video, write_video
+from mtbench.logging import iter_messages, read_scalars
+from mtbench.trainer.trainer import Trainer
+
+CONF = str(Path(__file__).resolve().parents[1] / "conf")
+TASKS = ["reach", "drawer_close", "button_press_topdown"]
+EPISODE_STEPS = 30
+
+
+@pytest.fixture(scope="module")
+def checkpoint(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("eval_run")
+    overrides = [
+        "device=cpu", "env=cpu_small", "env.num_envs=6", f"+env.overrides.episode_length={EPISODE_STEPS}",
+        "arch.kwargs.hidden=[32,32]", "loss.horizon=8", "loss.minibatch_size=48", "loss.epochs=1",
+        "max_iterations=1", "logging.progress=none", "checkpoint.every=0", f"checkpoint.dir={root / 'ckpt'}",
+    ]
+    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
+        cfg = compose("config", overrides=overrides)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        trainer = Trainer(cfg)
+        trainer.train()
+        trainer.close()
+    finally:
+        torch.set_num_threads(threads)
+    return root / "ckpt" / "final.pt"
+
+
+@pytest.fixture(scope="module")
+def noiseless_video_report(checkpoint: Path, tmp_path_factory: pytest.TempPathFactory):
+    """Both evaluations with the policy's log-std set to -30 (sigma ~ 1e-13) and 8-frame videos."""
+
+    def silence(policy) -> None:
+        with torch.no_grad():
+            policy.head.log_std.fill_(-30.0)
+
+    out = tmp_path_factory.mktemp("eval_video")
+    args = parse_args([f"checkpoint={checkpoint}", "episodes=2", "device=cpu", f"out={out}", "video=true",
+                       "video_frames=8", "video_size=64x48", "seed=3"])
+    return evaluate(args, policy_hook=silence)
+
+
+def test_main_prints_and_writes_the_per_task_table(checkpoint: Path, tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    out = checkpoint.parent / "eval"  # the default output directory
+    assert main([f"checkpoint={checkpoint}", "episodes=2", "device=cpu"]) == 0
+    printed = capsys.readouterr().out
+    table = [line for line in printed.splitlines() if line.startswith("|")]
+    assert len(table) == 2 + len(TASKS) + 1  # header, alignment, one row per task, mean
+    assert "success (sampled)" in table[0] and "success (deterministic)" in table[0]
+    for line, task in zip(table[2:], TASKS):
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[0] == task and cells[-1] == "2"  # episodes (the same in both evaluations)
+    assert table[-1].startswith("| **mean**")
+    report = json.loads((out / "eval.json").read_text())
+    assert report["task_names"] == TASKS and report["num_envs"] == 6 and report["episode_steps"] == EPISODE_STEPS
+    assert report["seed"] == 43  # default: the training seed (42) + 1, worlds the policy was not trained on
+    for mode in ("sampled", "deterministic"):
+        per_task = report["evaluations"][mode]["per_task"]
+        assert list(per_task) == TASKS
+        for row in per_task.values():
+            assert row["episodes"] == 2 and row["length"] == EPISODE_STEPS and 0.0 <= row["success"] <= 1.0
+    assert all(task in (out / "eval.md").read_text() for task in TASKS)
+    scalars = read_scalars(out / "eval.mcap")
+    frames = report["frames"]
+    for task in TASKS:
+        assert scalars[f"success/{task}"][0][0] == frames
+        assert scalars[f"deterministic/return/{task}"][0][1] == pytest.approx(
+            report["evaluations"]["deterministic"]["per_task"][task]["return"])
+
+
+def test_without_sampling_noise_both_evaluations_agree(noiseless_video_report) -> None:
+    sampled, deterministic = noiseless_video_report.results
+    assert (sampled.mode, deterministic.mode) == ("sampled", "deterministic")
+    assert sampled.episodes == deterministic.episodes == [2, 2, 2]
+    assert sampled.success == deterministic.success
+    assert sampled.returns == pytest.approx(deterministic.returns, rel=1e-5, abs=1e-4)
+
+
+def test_sampled_and_deterministic_actions_differ_only_by_the_noise(checkpoint: Path) -> None:
+    from mtbench.evaluation.policy import load_policy
+
+    class Specs:  # load_policy reads only the env's sizes
+        num_tasks = 3
+        observation_spec = {"observation": torch.zeros(6, 39 + 3)}
+        action_spec = torch.zeros(6, 4)
+
+    policy = load_policy(read_checkpoint(checkpoint), Specs(), torch.device("cpu"))
+    torch.manual_seed(0)
+    td = TensorDict({"observation": torch.randn(6, 42) * 3, "task_id": torch.tensor([0, 0, 1, 1, 2, 2])},
+                    batch_size=[6])
+    raw = td["observation"].clone()
+    obs = policy.obs_norm.normalize(raw, td["task_id"])
+    assert not torch.allclose(obs[:, :39], raw[:, :39])  # the checkpoint's statistics are applied
+    loc, _ = policy.head(obs, td["task_id"])
+    assert torch.equal(policy(td, deterministic=True), loc.clamp(-1, 1))
+    sampled = policy(td, deterministic=False)
+    assert not torch.allclose(sampled, loc)  # sigma = exp(log_std) ~ 1 after one iteration
+    with torch.no_grad():
+        policy.head.log_std.fill_(-30.0)
+    assert torch.allclose(policy(td, deterministic=False).clamp(-1, 1), loc.clamp(-1, 1), atol=1e-6)
+    assert torch.equal(td["observation"], raw)  # the input is not normalised in place
+
+
+def test_videos_have_the_requested_frames_and_show_the_scene(noiseless_video_report) -> None:
+    report = noiseless_video_report
+    assert list(report.videos) == TASKS
+    background = np.array(BACKGROUND[:3]) * 255
+    for task, path in report.videos.items():
+        assert path.parent == report.out / "videos" and path.stem == task and path.suffix in (".mp4", ".gif")
+        frames = read_video(path)
+        assert frames.shape[0] == 8 and frames.shape[1:3] == (48, 64)
+        assert frames.std() > 20 and len(np.unique(frames.reshape(-1, 3), axis=0)) > 50  # not one colour
+        sky = np.abs(frames.astype(float) - background).sum(-1) < 30
+        assert sky[:, :12].mean() > sky[:, -12:].mean() + 0.2  # upright: sky at the top, table and floor below
+    sheet = np.asarray(__import__("PIL.Image", fromlist=["Image"]).open(report.frames_png))
+    assert sheet.shape[1] == 3 * 64
+    messages = [(topic, msg) for topic, _, msg in iter_messages(report.mcap) if topic.startswith("/video/")]
+    for task in TASKS:
+        frames = [m for t, m in messages if t == f"/video/eval/{task}"]
+        assert [m["frame_index"] for m in frames] == list(range(8)) and frames[0]["format"] == "png"
+
+
+def test_video_files_keep_every_frame_and_grids_tile_row_major(tmp_path: Path) -> None:
+    still = np.full((40, 24, 32, 3), 120, dtype=np.uint8)  # a robot that does not move: identical frames
+    path = write_video(tmp_path / "still", still, fps=30)
+    frames = read_video(path)
+    assert frames.shape == (40, 24, 32, 3)
+    assert np.array_equal(frames[:, :-2], still[:, :-2])  # only the 2-pixel progress bar is added
+    worlds = torch.arange(4, dtype=torch.uint8).reshape(4, 1, 1, 1).expand(4, 2, 3, 3)  # world i has value i
+    grid = tile(worlds, 2)
+    assert grid.shape == (4, 6, 3)
+    assert grid[0, 0, 0] == 0 and grid[0, 3, 0] == 1 and grid[2, 0, 0] == 2 and grid[3, 5, 0] == 3
+
+
+def test_run_episodes_counts_full_episodes_per_task() -> None:
+    env = SyntheticMTEnv([2, 3, 2], max_episode_steps=5, random_initial_progress=False, seed=0)
+
+    def policy(td, deterministic):
+        return torch.zeros(td.batch_size[0], env.action_dim)
+
+    result = run_episodes(env, policy, episodes=5, deterministic=True, seed=0)
+    assert result.episodes == [6, 9, 6]  # ceil(5 / 2) = 3 passes of one episode per world
+    assert result.lengths == [5.0, 5.0, 5.0]
+    assert all(0.0 <= s <= 1.0 for s in result.success) and result.metric == "success"
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        ([], "missing parameter 'checkpoint'"),
+        (["checkpoint=/no/such/file.pt"], "checkpoint='/no/such/file.pt': no such file"),
+        (["checkpoint={dir}"], "is a directory"),
+        (["checkpoint={ckpt}", "episodes=0"], "episodes=0 is out of range; episodes must be an integer >= 1"),
+        (["checkpoint={ckpt}", "episodes=-3"], "episodes must be an integer >= 1"),
+        (["checkpoint={ckpt}", "episodes=ten"], "episodes='ten' is not an integer"),
+        (["checkpoint={ckpt}", "episodes=2.5"], "episodes='2.5' is not an integer"),
+        (["checkpoint={ckpt}", "num_envs=0"], "num_envs must be an integer >= 1"),
+        (["checkpoint={ckpt}", "epsiodes=3"], "unknown parameter 'epsiodes'; valid keys: checkpoint, episodes"),
+        (["checkpoint={ckpt}", "device=tpu"], "device='tpu' is not a valid device; valid choices: auto, cpu, cuda"),
+        (["checkpoint={ckpt}", "video=maybe"], "video='maybe' is not a boolean; valid choices: true, false"),
+        (["checkpoint={ckpt}", "deterministic=2"], "deterministic='2' is not a boolean"),
+        (["checkpoint={ckpt}", "seed=-1"], "seed=-1 is out of range"),
+        (["checkpoint={ckpt}", "video_size=10x10"], "each side must be in [16, 4096]"),
+        (["checkpoint={ckpt}", "video_size=big"], "video_size='big' is not WIDTHxHEIGHT"),
+        (["checkpoint={ckpt}", "video_grid=3"],
+         "video_grid=3 is out of range; video_grid must be an integer in [1, 2]"),
+        (["checkpoint={ckpt}", "episodes"], "argument 'episodes' is not key=value"),
+        (["checkpoint={ckpt}", "episodes=1", "episodes=2"], "parameter 'episodes' is given twice"),
+    ],
+)
+def test_bad_arguments_name_the_parameter_and_valid_values(tmp_path: Path, argv: list[str], message: str) -> None:
+    ckpt = tmp_path / "final.pt"
+    ckpt.write_bytes(b"")
+    argv = [a.format(ckpt=ckpt, dir=tmp_path) for a in argv]
+    with pytest.raises(EvalArgumentError) as err:
+        parse_args(argv)
+    assert message in str(err.value)
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="checks the message on a machine without CUDA")
+def test_cuda_without_a_gpu_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "final.pt").write_bytes(b"")
+    with pytest.raises(EvalArgumentError, match=r"device='cuda': CUDA is not available .* valid choices here: auto"):
+        parse_args([f"checkpoint={tmp_path / 'final.pt'}", "device=cuda"])
+
+
+def test_bad_checkpoints_and_sizes_are_refused(checkpoint: Path, tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    garbage = tmp_path / "garbage.pt"
+    garbage.write_text("not a checkpoint")
+    with pytest.raises(EvalArgumentError, match="cannot be read as a checkpoint written by Trainer.save"):
+        evaluate(parse_args([f"checkpoint={garbage}"]))
+    foreign = tmp_path / "foreign.pt"
+    torch.save({"version": 1, "weights": {}}, foreign)
+    with pytest.raises(EvalArgumentError, match=r"lacks \['config', 'loss'\]"):
+        evaluate(parse_args([f"checkpoint={foreign}"]))
+    with pytest.raises(EvalArgumentError, match=r"num_envs=2 is smaller than the number of tasks \(3\)"):
+        evaluate(parse_args([f"checkpoint={checkpoint}", "num_envs=2", "device=cpu"]))
+    # the same errors through the command line: exit status 2 and the message on stderr
+    assert main([f"checkpoint={checkpoint}", "video=true", "device=cpu", f"video_frames={EPISODE_STEPS + 1}",
+                 f"out={tmp_path / 'x'}"]) == 2
+    expected = (f"video_frames={EPISODE_STEPS + 1} is out of range; "
+                f"video_frames must be an integer in [1, {EPISODE_STEPS}]")
+    assert expected in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
