@@ -1,8 +1,8 @@
-"""Parkour: a Unitree Go1 on MTBench's 20 obstacle terrains + flat (MuJoCo Warp).
+"""Parkour: a Unitree Go1 on MTBench's 20 obstacle terrains + flat.
 
-The terrain generator (``terrain``, ``terrains/``) is pure numpy and imports nothing heavy; the env side
-(``ParkourEnv`` and its helpers) is imported lazily on first attribute access so that importing the terrain
-package does not pull in MuJoCo Warp.
+The terrain generator (``terrain``, ``terrains/``) is pure numpy and is imported here directly; the env side
+(``ParkourEnv``, the settings) is imported on first attribute access, so that the terrain modules never import the
+env's modules.
 """
 
 from __future__ import annotations
@@ -10,13 +10,16 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from .terrain import Terrain, TerrainConfig, generate_terrain
+from .terrains import TERRAIN_NAMES
+
 _LAZY = {
     "ParkourEnv": ".env",
     "SETTINGS": ".settings",
     "make_parkour_env": ".settings",
 }
 
-__all__ = sorted(_LAZY)
+__all__ = sorted(["TERRAIN_NAMES", "Terrain", "TerrainConfig", "generate_terrain", *_LAZY])
 
 
 def __getattr__(name: str) -> Any:
