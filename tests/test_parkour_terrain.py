@@ -474,7 +474,7 @@ def test_config_validation_names_the_choices():
 def test_whole_grid_generates_in_a_few_seconds():
     start = time.process_time()  # CPU time: robust to other processes on the machine
     generate_terrain(TerrainConfig(seed=3))
-    assert time.process_time() - start < 5.0  # about 0.4 s on a 2-core CPU (docs/parkour.md)
+    assert time.process_time() - start < 5.0  # about 0.2 s on a 2-core CPU (docs/parkour.md)
 
 
 def test_render_grid_and_tile(tmp_path):

@@ -60,12 +60,13 @@ def render_grid(terrain: Terrain, path: str | Path, vmax: float | None = 1.5, dp
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
     mode = "easy (d = 0 everywhere)" if cfg.easy else "hard (d = row / (rows - 1))"
-    ax.set_title(f"Parkour terrain, {cfg.num_rows} x {cfg.num_cols} tiles of {length:g} x {width:g} m, {mode}, "
-                 f"seed {cfg.seed}; x along the tiles, world (0, 0) at the corner of tile (0, 0)", fontsize=9)
+    ax.set_title(f"Parkour terrain: {cfg.num_rows} x {cfg.num_cols} tiles of {length:g} x {width:g} m, {mode}, "
+                 f"seed {cfg.seed}\nx along the tiles (m), world (0, 0) at the corner of tile (0, 0); "
+                 "red circles: waypoints 0-7", fontsize=9)
     bar = fig.colorbar(image, ax=ax, fraction=0.025, pad=0.01, extend="max" if vmax is not None else "neither")
     bar.set_label("height (m)")
     fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
     plt.close(fig)
 
 
@@ -117,7 +118,7 @@ def render_tile(terrain: Terrain, row: int, col: int, path: str | Path, dpi: int
     fig.suptitle(f"{name} (task {TERRAIN_NAMES.index(name)}), tile row {row} col {col}, "
                  f"d = {terrain.difficulty[row, col]:.2f}{' (easy)' if cfg.easy else ''}, seed {cfg.seed}")
     fig.colorbar(image, ax=[top, side], fraction=0.02, pad=0.01).set_label("height (m)")
-    fig.savefig(path, dpi=dpi)
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
     plt.close(fig)
 
 

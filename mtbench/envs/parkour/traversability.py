@@ -10,15 +10,16 @@ Model, on the tile's cells (0.05 m) with its real heights (roughness included):
 * The robot **walks** between neighbouring standable cells (8-connected) whose heights differ by at most
   ``max_step_up`` (a step up or down). Cells connected this way form a *region*.
 * It **steps over, steps down or jumps** along a straight line from the edge of one region to a standable cell of
-  another (across a pit, a step edge or a stretch too steep to stand on) when the pit crossed (the non-solid cells under the line) is at most ``max_gap`` long, the line is at most
-  ``max_gap + 2 support_radius`` plus one cell long (take-off and landing may be up to ``support_radius`` from the
-  edges of the gap), the landing is at most ``max_step_up`` higher or ``max_step_down`` lower than the take-off, and
-  no cell under the line is more than ``jump_clearance`` above both ends (no jumping through walls or poles).
+  another (across a pit, a step edge or a stretch too steep to stand on) when the pit crossed (the non-solid cells
+  under the line) is at most ``max_gap`` long, the line is at most ``max_gap + 2 support_radius`` plus one cell long
+  (take-off and landing may be up to ``support_radius`` from the edges of the gap), the landing is at most
+  ``max_step_up`` higher or ``max_step_down`` lower than the take-off, and no cell under the line is more than
+  ``jump_clearance`` above both ends (no jumping through walls or poles).
 * A waypoint is **on a surface** when its nearest cell is solid and a standable cell within ``support_radius`` of
   it, at most ``max_step_up`` higher or lower, belongs to a region the robot can get to from the spawn point (so
-  it is not in a pit, nor inside or on top of a wall or pole it cannot climb). It is **reached**
-  when the robot can stand on some cell within ``reach_radius`` of it (the env's goal threshold). The waypoints are
-  followed in order from the spawn point: leg ``k`` starts from the regions in which waypoint ``k - 1`` was reached.
+  it is not in a pit, nor inside or on top of a wall or pole it cannot climb). It is **reached** when the robot
+  can stand on some cell within ``reach_radius`` of it (the env's goal threshold). The waypoints are followed in
+  order from the spawn point: leg ``k`` starts from the regions in which waypoint ``k - 1`` was reached.
 
 A tile is traversable when all 8 waypoints are on a surface and reached. ``Go1Reach`` states the limits and why.
 ``python -m mtbench.envs.parkour.traversability`` prints the per-terrain report for the 10 x 21 grid.
@@ -41,12 +42,12 @@ class Go1Reach:
 
     max_step_up: float = 0.35
     """Highest step up (walking or jumping). The Go1's leg is 0.43 m (thigh 0.213 + calf 0.213 m) and it stands
-    with its hips about 0.3 m high, so a foot can be placed about that high; MTBench's d = 0 steps are <= 0.34 m."""
+    with its hips about 0.3 m high, so a foot can be placed about that high; MTBench's d = 0 steps are at most 0.345 m."""
     max_step_down: float = 0.6
     """Deepest drop: twice the standing height, which a 12 kg quadruped lands on its legs."""
     max_gap: float = 0.7
-    """Widest gap jumped. Extreme Parkour's A1, a robot of the Go1's size, long-jumps gaps of twice its length
-    (about 0.8 m); 0.7 m leaves a margin. The widest gaps at d = 0 are bump_jump's last jump from the final dome to
+    """Widest gap jumped. Extreme Parkour's A1 (arXiv 2309.14341), a robot of the Go1's size, long-jumps gaps of
+    twice its length; 0.7 m leaves a margin. The widest gaps at d = 0 are bump_jump's last jump from the final dome to
     the ground (0.55-0.7 m along the centre line); box_jump_even's reach 0.6-0.7 m at d = 1."""
     jump_clearance: float = 0.1
     """Cells under a jump may stand at most this much above both its ends."""
@@ -84,9 +85,10 @@ class TileReport:
 
     @property
     def reason(self) -> str:
-        """Empty when traversable, else what failed first."""
+        """Empty when traversable, else what failed (goals past an unreachable one are not listed as off a
+        surface: nothing beyond it can be got onto)."""
         problems = []
-        off = [k for k, ok in enumerate(self.on_surface) if not ok]
+        off = [k for k, ok in enumerate(self.on_surface) if not ok and k < max(self.reached, 1)]
         if off:
             problems.append(f"goal{'s' if len(off) > 1 else ''} {','.join(map(str, off))} not on a surface")
         if self.reached < len(self.on_surface):
@@ -174,9 +176,8 @@ def _slope(heights: np.ndarray, solid: np.ndarray, radius_cells: float, same_sur
 def _line_offsets(max_cells: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every straight move of 1..max_cells cells (centre distance) and the cells under it.
 
-    Returns ``moves [M, 2]``, ``under [M, K, 2]`` (offsets of the cells strictly between the ends, padded by
-    repeating the take-off offset 0), ``valid [M, K]`` (which of them are real) and ``step [M]`` (metres of line per
-    cell under it, in units of cells).
+    Returns ``moves [M, 2]``, ``under [M, K, 2]`` (offsets of the cells strictly between the ends, padded with
+    zeros), ``valid [M, K]`` (which of them are real) and ``step [M]`` (length of line per cell under it, in cells).
     """
     moves = [m for m in _disc_offsets(max_cells) if m.any()]
     n = np.array([max(abs(dx), abs(dy)) for dx, dy in moves])

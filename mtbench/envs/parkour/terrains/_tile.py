@@ -75,11 +75,9 @@ class Tile:
         self.heights[int(x):, :] = height
 
     def box(self, x1: float, x2: float, y_mid: float, width: int, height: float | np.ndarray) -> None:
-        """Fill rows ``[int(x1), int(x2))`` and columns ``int(y_mid) -+ width // 2`` with ``height``.
-
-        ``height`` may be a column vector ``[int(x2) - int(x1), 1]`` (a ramp along x) or a row vector
-        (a ramp across). Slices clip at the tile edge as numpy slices do.
-        """
+        """Fill rows ``[int(x1), int(x2))`` and columns ``[int(y_mid - width // 2), int(y_mid + width // 2))`` (the
+        original's ``add_platform``) with ``height``, a number or a column ``[rows, 1]`` (a ramp along x). Slices
+        clip at the tile edge as numpy slices do."""
         half = width // 2
         self.heights[int(x1):int(x2), int(y_mid - half):int(y_mid + half)] = height
 
@@ -101,4 +99,4 @@ class Tile:
 
 def linear_ramp(start: float, rise: float, n: int) -> np.ndarray:
     """``start + rise * k / n`` for ``k = 0..n-1`` as a column ``[n, 1]`` (the original's per-row ramp loops)."""
-    return (start + rise * (np.arange(max(n, 0)) / n))[:, None] if n > 0 else np.zeros((0, 1))
+    return (start + rise * (np.arange(n) / n))[:, None] if n > 0 else np.zeros((0, 1))

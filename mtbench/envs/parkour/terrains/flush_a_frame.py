@@ -12,8 +12,8 @@ DIFFICULTY_RANGE = (0.55, 0.9)
 
 def generate(rng: np.random.RandomState, d: float, tile: Tile) -> np.ndarray:
     """Each half ``1 - 0.4d`` m long, width ``1.5 - 0.5d`` m, peak ``U(0.1 + 0.6d, 0.15 + 0.6d)`` m, foot heights
-    ``U(0.01 + 0.05d, 0.03 + 0.03d)`` m, gap ``0.1 + 0.7d`` m; shifts ``U(-0.2, 0.2)`` m along, ``U(-0.1, 0.1)`` m across.
-    The goal sits on the peak."""
+    ``U(0.01 + 0.05d, 0.03 + 0.03d)`` m, gap ``0.1 + 0.7d`` m; shifts ``U(-0.2, 0.2)`` m along, ``U(-0.1, 0.1)`` m
+    across. The goal sits on the peak."""
     half_length = tile.cells(1.0 - 0.4 * d)
     width = tile.cells(1.5 - 0.5 * d)
     peak_lo, peak_hi = 0.1 + 0.6 * d, 0.15 + 0.6 * d

@@ -12,7 +12,8 @@ DIFFICULTY_RANGE = (0.6, 1.0)
 
 def generate(rng: np.random.RandomState, d: float, tile: Tile) -> np.ndarray:
     """Ramp length ``1.2 - 0.3d`` m, width ``U(1, 2)`` m, lip ``U(0.1 + 0.2d, 0.15 + 0.2d)`` m, rise over the ramp
-    ``U(0.03 + 0.25d, 0.05 + 0.3d)`` m, gap ``0.7 + 0.3d`` m; shifts ``U(-0.3, 0.3)`` m along, ``U(-0.1, 0.1)`` m across."""
+    ``U(0.03 + 0.25d, 0.05 + 0.3d)`` m, gap ``0.7 + 0.3d`` m; shifts ``U(-0.3, 0.3)`` m along, ``U(-0.1, 0.1)`` m
+    across."""
     length = tile.cells(1.2 - 0.3 * d)
     width = tile.cells(rng.uniform(1.0, 2.0))
     lip_lo, lip_hi = 0.1 + 0.2 * d, 0.15 + 0.2 * d
