@@ -17,13 +17,22 @@ from mtbench.envs.parkour import robot
 from mtbench.envs.parkour.env import ParkourEnv
 from mtbench.envs.parkour.height_scan import SCAN_X, SCAN_Y
 from mtbench.envs.parkour.observation import GROUPS, OBS_DIM, SLICES, STATE_DIM
-from mtbench.envs.parkour.rewards import REWARD_SCALES, collision, compute_reward, energy_cost, tracking_goal_vel, \
-    tracking_yaw
+from mtbench.envs.parkour.rewards import (REWARD_SCALES, collision, compute_reward, energy_cost,
+                                          tracking_goal_vel, tracking_yaw)
 from mtbench.envs.parkour.terrains import TERRAIN_NAMES
 from parkour_synthetic import SyntheticConfig, synthetic_terrain
 
 FLAT = TERRAIN_NAMES.index("flat")
 BOX = TERRAIN_NAMES.index("box_jump_even")
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _one_torch_thread():
+    """Tiny tensors: one torch thread avoids thread-pool wake-ups that dominate on a busy 2-core CPU."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
 
 
 def _env(columns=("flat",), num_rows=2, n=2, **kw) -> ParkourEnv:
@@ -34,9 +43,9 @@ def _env(columns=("flat",), num_rows=2, n=2, **kw) -> ParkourEnv:
 
 
 def _teleport(env: ParkourEnv, xyz: torch.Tensor, quat: torch.Tensor | None = None) -> None:
-    """Put every world's base at world position ``xyz`` [N, 3] (grid representation: physics = world), at rest."""
+    """Put every world's base at world position ``xyz`` [N, 3] (its tile's physics frame), at rest."""
     n = env.batch_size[0]
-    env.sim.qpos[:, 0:3] = xyz
+    env.sim.qpos[:, 0:3] = xyz - env.world_offset
     env.sim.qpos[:, 3:7] = torch.tensor([1.0, 0.0, 0.0, 0.0]) if quat is None else quat
     env.sim.qpos[:, 7:] = env.q_default
     env.sim.qvel.zero_()
@@ -78,9 +87,13 @@ def test_waypoints_progress_statistics_and_curriculum_on_a_scripted_path() -> No
     assert stats["length"][FLAT] == t + 1
     assert stats["terrain_level"][FLAT] == 0 and stats["max_terrain_level"][FLAT] == 0
     assert stats["max_terrain_level"].sum() == 0 - (len(TERRAIN_NAMES) - 1)  # -1 for tasks without episodes
-    # curriculum: 8 goals >= 0.8 * 8: one row up, and the new episode starts on row 1's tile (x = 18 + 1)
+    # curriculum: 8 goals >= 0.8 * 8: one row up, and the new episode starts on row 1's tile (x = 8 + 1), whose
+    # heightfield world 0 now simulates, in that tile's frame
     assert int(env.level[0]) == 1
     assert env.base_pos[0, 0] == pytest.approx(8.0 + 1.0, abs=1e-4)
+    assert env.sim.qpos[0, 0] == pytest.approx(1.0, abs=1e-4) and env.world_offset[0, 0] == 8.0
+    geom_dataid = env.sim.model_field("geom_dataid")[:, env.scene.hfield_geom]
+    assert geom_dataid.tolist() == [int(env.scene.tile_hfield[1, 0]), int(env.scene.tile_hfield[0, 0])]
     assert int(env.cur_goal_idx[0]) == 0 and int(env.progress[0]) == 0
 
 
@@ -98,16 +111,18 @@ def test_observation_layout_matches_the_state_it_encodes() -> None:
     obs = td["observation"]
     assert obs.shape == (2, 233)
     qpos, qvel = env.sim.qpos.double(), env.sim.qvel.double()
+    pos = qpos[:, :3] + env.world_offset.double()  # world position (physics runs in each tile's frame)
+    assert torch.equal(env.world_offset[:, :2], torch.tensor([[0.0, 0.0], [0.0, 4.0]]))
     o = {k: obs[:, s].double() for k, s in SLICES.items()}
     rot = Rotation.from_quat(qpos[:, [4, 5, 6, 3]].numpy())  # scipy: x, y, z, w
     yaw, pitch, roll = torch.tensor(rot.as_euler("ZYX")).T
     torch.testing.assert_close(o["base_ang_vel"], qvel[:, 3:6] * 0.25, atol=1e-6, rtol=0)
     torch.testing.assert_close(o["roll_pitch"], torch.stack([roll, pitch], -1), atol=1e-5, rtol=0)
     goal = env.goals[:, 0, :2].double()  # still heading for goal 0
-    target_yaw = torch.atan2(goal[:, 1] - qpos[:, 1], goal[:, 0] - qpos[:, 0])
+    target_yaw = torch.atan2(goal[:, 1] - pos[:, 1], goal[:, 0] - pos[:, 0])
     torch.testing.assert_close(o["delta_yaw"][:, 0], target_yaw - yaw, atol=1e-5, rtol=0)
     next_goal = env.goals[:, 1, :2].double()
-    next_yaw = torch.atan2(next_goal[:, 1] - qpos[:, 1], next_goal[:, 0] - qpos[:, 0])
+    next_yaw = torch.atan2(next_goal[:, 1] - pos[:, 1], next_goal[:, 0] - pos[:, 0])
     torch.testing.assert_close(o["delta_next_yaw"][:, 0], next_yaw - yaw, atol=1e-5, rtol=0)
     assert torch.all((o["command"] >= 0.3) & (o["command"] <= 0.8))
     torch.testing.assert_close(o["joint_pos"], qpos[:, 7:] - torch.tensor(robot.DEFAULT_JOINT_POS), atol=1e-6,
@@ -123,8 +138,8 @@ def test_observation_layout_matches_the_state_it_encodes() -> None:
     gx, gy = np.meshgrid(np.array(SCAN_X), np.array(SCAN_Y), indexing="ij")
     for w in range(2):
         c, s = np.cos(yaw[w].item()), np.sin(yaw[w].item())
-        px = c * gx.ravel() - s * gy.ravel() + qpos[w, 0].item()
-        py = s * gx.ravel() + c * gy.ravel() + qpos[w, 1].item()
+        px = c * gx.ravel() - s * gy.ravel() + pos[w, 0].item()
+        py = s * gx.ravel() + c * gy.ravel() + pos[w, 1].item()
         a = np.clip(np.floor((px + t.border) / 0.05).astype(int), 0, t.heights.shape[0] - 2)
         b = np.clip(np.floor((py + t.border) / 0.05).astype(int), 0, t.heights.shape[1] - 2)
         h = np.minimum(np.minimum(t.heights[a, b], t.heights[a + 1, b]), t.heights[a, b + 1])
@@ -285,9 +300,12 @@ def test_levels_are_spread_over_rows_within_each_column_block() -> None:
     assert env.level.tolist() == [0, 1, 2, 0, 0, 1, 2]
     assert env.task_id.tolist() == [FLAT] * 4 + [BOX] * 3
     assert env.task_counts[FLAT] == 4 and env.task_counts[BOX] == 3 and sum(env.task_counts) == 7
-    td = env.reset()
+    obs = env.reset()["observation"]
     origins = torch.as_tensor(env.terrain.tile_origins)[env.level, env.column]
     torch.testing.assert_close(env.base_pos[:, :2], origins[:, :2], atol=1e-4, rtol=0)
+    # the first observation: at rest, upright, heading for the first goal straight ahead
+    assert torch.all(obs[:, SLICES["base_lin_vel"]] == 0) and torch.all(obs[:, SLICES["roll_pitch"]] == 0)
+    assert torch.all(obs[:, SLICES["delta_yaw"]].abs() < 1e-6) and torch.all(obs[:, SLICES["last_action"]] == 0)
     check_env_specs(env)
 
 

@@ -14,6 +14,15 @@ from mtbench.sim import WarpSim
 from parkour_synthetic import SyntheticConfig, synthetic_terrain
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _one_torch_thread():
+    """Tiny tensors: one torch thread avoids thread-pool wake-ups that dominate on a busy 2-core CPU."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
 def _pd_torque(q_target, q, qdot, ms0=1.0, ms1=1.0):
     """The original's ``_compute_torques`` (control_type P) followed by the +-33.5 N m clip."""
     return np.clip(ms0 * 50.0 * (q_target - q) - ms1 * 3.0 * qdot, -33.5, 33.5)
@@ -146,6 +155,66 @@ def test_tiles_representation_cuts_each_tile_from_the_grid(terrain) -> None:
         build_scene(terrain, "legs", "tiles", tile_margin=5.0)
     with pytest.raises(ValueError, match="valid choices"):
         build_scene(terrain, "legs", "voxels")
+
+
+def test_tiles_keep_robots_near_their_heightfield_centre() -> None:
+    """The tiles scene keeps every point of a tile (and its margin) within 11 m of the heightfield centre, where
+    MuJoCo Warp's heightfield contacts are sound; the one-grid heightfield of the full 10 x 21 grid does not."""
+    from mtbench.envs.parkour.terrain import TerrainConfig, generate_terrain
+
+    terrain = generate_terrain(TerrainConfig(num_rows=2, columns=("flat", "balance_beam", "flat")))
+    tiles = build_scene(terrain, "feet", "tiles")
+    m, g, k = tiles.mjm, tiles.hfield_geom, 0
+    corner = np.array([m.hfield_size[k, 0], m.hfield_size[k, 1]])
+    assert np.linalg.norm(corner) < 11.0
+    # a tile's physics frame: x in [0, 18], y in [0, 4] (plus the margin) around the heightfield centre
+    centre = m.geom_pos[g, :2]
+    for x, y in ((-1.0, -1.0), (19.0, 5.0), (1.0, 2.0)):
+        assert np.linalg.norm(np.array([x, y]) - centre) < 11.0
+    full = generate_terrain(TerrainConfig())
+    extent = 0.5 * np.array(full.heights.shape) * full.config.horizontal_scale
+    assert np.linalg.norm(extent) > 100.0  # "grid": tiles up to ~100 m from the centre
+
+
+def test_heightfield_sphere_contacts_near_the_centre_agree_with_mujoco_c() -> None:
+    """Spheres (the Go1's foot radius) 1 cm below grid vertices of a tile-sized heightfield with +-2 cm roughness:
+    the deepest contact of MuJoCo Warp is within 4 cm of MuJoCo C's (measured up to 3.6 cm: the two heightfield
+    colliders differ), never metres off."""
+    import mujoco_warp as mjw
+    import warp as wp
+
+    hs, nx, ny, n = 0.05, 401, 121, 64
+    rng = np.random.default_rng(0)
+    h = rng.integers(-4, 5, size=(nx, ny)) * 0.005
+    rx, ry = (nx - 1) * hs / 2, (ny - 1) * hs / 2
+    spec = mujoco.MjSpec()
+    spec.add_hfield(name="h", nrow=ny, ncol=nx, size=[rx, ry, float(h.max() - h.min()), 1.0],
+                    userdata=np.zeros(nx * ny).tolist())
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="h", pos=[0, 0, float(h.min())])
+    body = spec.worldbody.add_body()
+    body.add_freejoint()
+    body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[robot.FOOT_RADIUS, 0, 0])
+    m = spec.compile()
+    m.hfield_data[:] = ((h.T - h.min()) / (h.max() - h.min())).astype(np.float32).ravel()
+    a, b = rng.integers(10, nx - 10, n), rng.integers(10, ny - 10, n)  # above grid vertices
+    px, py = a * hs - rx, b * hs - ry
+    qpos = np.zeros((n, 7))
+    qpos[:, 0], qpos[:, 1], qpos[:, 2], qpos[:, 3] = px, py, h[a, b] + robot.FOOT_RADIUS - 0.01, 1.0
+    d = mujoco.MjData(m)
+    c_min = np.zeros(n)
+    for i in range(n):
+        d.qpos[:] = qpos[i]
+        mujoco.mj_forward(m, d)
+        c_min[i] = min(d.contact[j].dist for j in range(d.ncon))
+    sim = WarpSim(m, n, "cpu", nconmax=8, njmax=32, use_graph=False)
+    sim.qpos.copy_(torch.tensor(qpos, dtype=torch.float32))
+    with wp.ScopedDevice("cpu"):
+        mjw.forward(sim.model, sim.data)
+    count = int(sim.data.nacon.numpy()[0])
+    w_min = np.zeros(n)
+    np.minimum.at(w_min, sim.data.contact.worldid.numpy()[:count], sim.data.contact.dist.numpy()[:count])
+    assert np.all(c_min < 0) and np.all(w_min < 0)
+    assert np.abs(w_min - c_min).max() < 0.04
 
 
 def test_body_contact_forces_match_mujoco_c(scene) -> None:

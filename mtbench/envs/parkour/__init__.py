@@ -19,7 +19,8 @@ _LAZY = {
     "make_parkour_env": ".settings",
 }
 
-__all__ = sorted(["TERRAIN_NAMES", "Terrain", "TerrainConfig", "generate_terrain", *_LAZY])
+__all__ = ["ParkourEnv", "SETTINGS", "TERRAIN_NAMES", "Terrain", "TerrainConfig", "generate_terrain",
+           "make_parkour_env"]
 
 
 def __getattr__(name: str) -> Any:

@@ -76,8 +76,9 @@ class ParkourEnv(EnvBase):
         episode_length: policy steps per episode (2000 = 40 s).
         terrain_collision: robot geoms that touch the terrain, ``"feet"``, ``"legs"`` (feet, calves, thighs) or
             ``"all"`` (``robot.TERRAIN_COLLISIONS``); the collision penalty needs ``"legs"`` or ``"all"``.
-        terrain_representation: ``"grid"`` (one heightfield for the whole grid) or ``"tiles"`` (one per tile,
-            selected per world); see ``scene.py``.
+        terrain_representation: ``"tiles"`` (one heightfield per tile, selected per world; physics in tile
+            frames) or ``"grid"`` (one heightfield for the whole grid; MuJoCo Warp's heightfield contacts go wrong
+            more than ~20 m from its centre: small grids only); see ``scene.py``.
         tile_margin: metres of neighbouring terrain around each tile heightfield (``"tiles"`` only).
         domain_randomization: sample friction, added mass, CoM offset and motor strengths per world
             (``domain_rand.py``); False: the nominal robot.
@@ -106,7 +107,7 @@ class ParkourEnv(EnvBase):
         max_init_level: int = cl.MAX_INIT_LEVEL,
         episode_length: int = 2000,
         terrain_collision: str = "legs",
-        terrain_representation: str = "grid",
+        terrain_representation: str = "tiles",
         tile_margin: float = 1.0,
         domain_randomization: bool = True,
         push_robots: bool = True,
@@ -189,6 +190,8 @@ class ParkourEnv(EnvBase):
         self.penalized_bodies = torch.tensor([body(b) for b in robot.THIGH_BODIES + robot.CALF_BODIES], device=dev)
         self.q_default = torch.as_tensor(robot.DEFAULT_JOINT_POS, dtype=torch.float32, device=dev)
         self._arange = torch.arange(n, device=dev)
+        self._spawn_lift = torch.tensor([0.0, 0.0, robot.BASE_INIT_HEIGHT], device=dev)
+        self._upright = torch.tensor([1.0, 0.0, 0.0, 0.0], device=dev).expand(n, 4)
 
         # named state, updated in place (the step may be replayed from CUDA graphs)
         z = lambda *shape, dtype=torch.float32: torch.zeros(n, *shape, dtype=dtype, device=dev)  # noqa: E731
@@ -352,10 +355,9 @@ class ParkourEnv(EnvBase):
         if self._geom_dataid is not None:
             self._geom_dataid.copy_(torch.where(mask, self._tile_hfield[self.level, self.column], self._geom_dataid))
         n = self.batch_size[0]
-        base = tile_origin - offset + torch.tensor([0.0, 0.0, robot.BASE_INIT_HEIGHT], device=self.device)
+        base = tile_origin - offset + self._spawn_lift
         joints = self.q_default + self._uniform((n, ACTION_DIM), *RESET_JOINT_NOISE)
-        quat = torch.nn.functional.pad(torch.ones(n, 1, device=self.device), (0, 3))
-        qpos = torch.cat([base, quat, joints], dim=-1)
+        qpos = torch.cat([base, self._upright, joints], dim=-1)
         self.sim.qpos.copy_(torch.where(m, qpos, self.sim.qpos))
         self.sim.qvel.copy_(torch.where(m, torch.zeros_like(self.sim.qvel), self.sim.qvel))
         self._sample_commands(mask)

@@ -1,16 +1,14 @@
 """The scandots: terrain heights under a 12 x 11 grid of points around the base, read from the height grid in torch.
 
 MTBench (``legged_base.py`` ``_get_heights``) samples the terrain's height grid (not ray casts): each point, given in
-the base frame on ``x in SCAN_X``, ``y in SCAN_Y`` (x-major order: point ``k`` is ``(SCAN_X[k // 11], SCAN_Y[k % 11])``),
-is rotated by the base yaw only and moved to the base position; the grid index is ``floor((p + border) / hs)``
+the base frame on ``x in SCAN_X``, ``y in SCAN_Y`` (x-major order: point ``k`` is
+``(SCAN_X[k // 11], SCAN_Y[k % 11])``), is rotated by the base yaw only and moved to the base position; the grid index is ``floor((p + border) / hs)``
 (clipped to the grid) and the height is the minimum of the samples at ``(a, b)``, ``(a + 1, b)`` and ``(a, b + 1)``.
 """
 
 from __future__ import annotations
 
 import torch
-
-from .rotations import rotate_by_yaw
 
 SCAN_X = (-0.45, -0.3, -0.15, 0.0, 0.15, 0.3, 0.45, 0.6, 0.75, 0.9, 1.05, 1.2)
 SCAN_Y = (-0.75, -0.6, -0.45, -0.3, -0.15, 0.0, 0.15, 0.3, 0.45, 0.6, 0.75)
@@ -52,5 +50,8 @@ class HeightGrid:
     def scan(self, base_xy: torch.Tensor, yaw: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
         """Ground heights ``[N, P]`` under the scan ``points`` ``[P, 2]`` of bases at world ``base_xy`` ``[N, 2]``
         with heading ``yaw`` ``[N]``."""
-        p = rotate_by_yaw(points, yaw) + base_xy[:, None, :]
-        return self.min3(p[..., 0], p[..., 1])
+        c, s = torch.cos(yaw)[:, None], torch.sin(yaw)[:, None]
+        px, py = points[:, 0][None, :], points[:, 1][None, :]
+        x = c * px - s * py + base_xy[:, 0:1]
+        y = s * px + c * py + base_xy[:, 1:2]
+        return self.min3(x, y)

@@ -79,7 +79,8 @@ GROUPS = {  # the original's five blocks
 
 
 def scandots(base_z: torch.Tensor, ground: torch.Tensor) -> torch.Tensor:
-    """``clip(base_z - 0.3 - h, -1, 1)`` for ground heights ``h`` ``[N, P]`` under a base at height ``base_z`` ``[N]``."""
+    """``clip(base_z - 0.3 - h, -1, 1)`` for ground heights ``h`` ``[N, P]`` under bases at height ``base_z``
+    ``[N]``."""
     return torch.clamp(base_z[:, None] - SCANDOT_OFFSET - ground, -1.0, 1.0)
 
 

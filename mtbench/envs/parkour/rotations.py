@@ -21,9 +21,3 @@ def euler_from_quat(q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.
     yaw = torch.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
     return roll, pitch, yaw
 
-
-def rotate_by_yaw(points: torch.Tensor, yaw: torch.Tensor) -> torch.Tensor:
-    """Rotate base-frame planar points ``[P, 2]`` by each world's yaw ``[N]`` about z: ``[N, P, 2]``."""
-    c, s = torch.cos(yaw)[:, None], torch.sin(yaw)[:, None]
-    x, y = points[:, 0][None, :], points[:, 1][None, :]
-    return torch.stack([c * x - s * y, s * x + c * y], dim=-1)

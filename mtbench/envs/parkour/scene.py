@@ -1,17 +1,21 @@
 """The Parkour MuJoCo model: the Go1 of ``robot.py`` and the terrain grid of ``terrain.py`` as heightfields.
 
-Terrain representation (``representation``):
+Terrain representation (``representation``). Both keep every terrain's exact shape (heights at every grid vertex;
+MuJoCo's heightfield surface is the triangulation through them, as IsaacGym's "grid" trimesh):
 
-* ``"grid"``: one heightfield holding the whole grid (all tiles and the border), shared by every world; each world's
-  robot is spawned on its own tile, in world coordinates. The terrain keeps its exact shape (heights at every grid
-  vertex; MuJoCo's heightfield surface is the triangulation through them, as IsaacGym's "grid" trimesh).
-* ``"tiles"``: one heightfield per tile (the tile plus ``tile_margin`` metres of its neighbours, cut from the same
-  grid) and one heightfield geom whose per-world ``geom_dataid`` selects the world's tile. Each world then lives in
-  its tile's local frame: physics position = world position - ``tile_offset[row, col]``.
+* ``"tiles"`` (the env's default): one heightfield per tile (the tile plus ``tile_margin`` metres of its neighbours,
+  cut from the grid) and one heightfield geom whose per-world ``geom_dataid`` selects the world's tile. Each world
+  lives in its tile's local frame (physics position = world position - ``tile_offset[row, col]``), so every robot
+  stays within about 10 m of its heightfield's centre.
+* ``"grid"``: one heightfield holding the whole grid (190 m x 94 m for 10 x 21 tiles), shared by every world; each
+  robot is spawned on its own tile, in world coordinates. MuJoCo Warp 4.0.0's heightfield narrowphase (float32
+  GJK/EPA in the heightfield frame) returns wrong penetration depths, up to tens of metres, for geoms more than
+  about 20 m from the heightfield centre (measured: ``docs/parkour.md``); such a contact launches the robot. Kept
+  for comparison (``benchmarks/parkour_collision.py``); use it only for grids of a few tiles.
 
-Both give MuJoCo Warp one static heightfield geom per world and the same narrowphase work (each robot geom is
-tested against the prisms under its bounding box); see ``benchmarks/parkour_collision.py`` and ``docs/parkour.md``.
-Which robot geoms touch the terrain is ``terrain_collision`` (``robot.TERRAIN_COLLISIONS``).
+Both give MuJoCo Warp one static heightfield geom per world and the same narrowphase work (each robot geom is tested
+against the prisms under its bounding box). Which robot geoms touch the terrain is ``terrain_collision``
+(``robot.TERRAIN_COLLISIONS``).
 
 Heights are written into the compiled model directly (MuJoCo would otherwise rescale each heightfield to its own
 [0, 1] range): ``hfield_data = (h - h_min) / (h_max - h_min)`` with one ``h_min``/``h_max`` for the whole grid, the
@@ -27,7 +31,7 @@ import numpy as np
 
 from . import robot
 
-TERRAIN_REPRESENTATIONS = ("grid", "tiles")
+TERRAIN_REPRESENTATIONS = ("tiles", "grid")
 HFIELD_BASE_DEPTH = 1.0  # m of solid below the lowest terrain point
 TERRAIN_FRICTION = 1.0  # the original's terrain material (robot geoms have priority; see env domain randomization)
 # MuJoCo solver settings: Newton with mjlab's iteration counts for legged robots (it converges in a few iterations;
@@ -42,7 +46,7 @@ class ParkourScene:
 
     Attributes:
         mjm: the compiled model (robot free joint first: ``qpos[:7]`` base pose, ``qpos[7:]`` the 12 joints).
-        representation: ``"grid"`` or ``"tiles"``.
+        representation: ``"tiles"`` or ``"grid"``.
         terrain_collision: which robot geoms touch the terrain (``robot.TERRAIN_COLLISIONS``).
         hfield_geom: id of the terrain heightfield geom.
         tile_offset: float32 ``[num_rows, num_cols, 3]`` world position of each tile's physics frame origin (zeros for
@@ -70,7 +74,7 @@ def _tile_grid_shape(terrain) -> tuple[int, int]:
     return terrain.tile_origins.shape[0], terrain.tile_origins.shape[1]
 
 
-def build_scene(terrain, terrain_collision: str = "legs", representation: str = "grid",
+def build_scene(terrain, terrain_collision: str = "legs", representation: str = "tiles",
                 tile_margin: float = 1.0) -> ParkourScene:
     """Compile the Go1 and ``terrain`` (a ``terrain.Terrain``) into one MuJoCo model.
 
