@@ -73,9 +73,10 @@ def test_pd_torques_match_hand_computation_in_mujoco_c(scene) -> None:
     for _ in range(5):
         qpos, qvel, ctrl = _random_state(rng)
         d.qpos[:], d.qvel[:], d.ctrl[:] = qpos, qvel, ctrl
-        mujoco.mj_forward(m, d)
+        mujoco.mj_step(m, d)  # the step's torques come from the state it started from
         expected = _pd_torque(ctrl, qpos[7:], qvel[6:])
         np.testing.assert_allclose(d.actuator_force, expected, atol=1e-9)
+        np.testing.assert_allclose(d.qfrc_actuator[6:], expected, atol=1e-9)
     assert np.any(np.abs(expected) == 33.5)  # the clip was exercised
     # mj_step integrates exactly these torques (no joint damping or friction besides the PD)
     assert np.all(m.dof_damping[6:] == 0) and np.all(m.dof_frictionloss[6:] == 0)
@@ -107,7 +108,7 @@ def test_pd_torques_with_motor_strengths_in_warp_and_c(scene) -> None:
         mc.actuator_biasprm[:, 2] = -ms[1, w] * robot.KD
         d = mujoco.MjData(mc)
         d.qpos[:], d.qvel[:], d.ctrl[:] = qpos, qvel, ctrl
-        mujoco.mj_forward(mc, d)
+        mujoco.mj_step(mc, d)
         np.testing.assert_allclose(d.actuator_force, expected, atol=1e-5)
     assert not np.allclose(ms[0, 0], ms[0, 1])
 
