@@ -9,8 +9,15 @@ controller for one episode (reach, grasp, push, press: the contact load of a tra
 then timed alone (synchronised before and after, the controller excluded), and contacts per world and the
 success rate are reported. ``--robot-collision`` and ``--box-box`` select the collision geometry and collider.
 
+Parkour settings (``--env parkour_flat|parkour_easy|parkour_hard|parkour_hard_cl`` or a terrain name) run the Go1
+env with ``--policy trot`` (default for Parkour: the trot-in-place joint targets of ``parkour_collision.py``),
+``stand`` (zero actions: hold the default pose) or ``random`` (uniform actions in [-1, 1] rad); the robots walk in
+place on their tiles, fall, time out and reset as in training. ``--terrain-collision`` and
+``--terrain-representation`` select the scene (``mtbench.envs.parkour.scene``), ``--num-rows`` the grid size.
+
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 4096 --device cuda
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 --policy scripted
+    python benchmarks/env_throughput.py --env parkour_hard --num-envs 16384
 """
 
 from __future__ import annotations
@@ -25,6 +32,13 @@ from tensordict import TensorDictBase
 
 from mtbench.envs import make_env
 from mtbench.envs.metaworld.policies import scripted_policy
+from mtbench.envs.parkour.settings import SETTINGS as PARKOUR_SETTINGS
+from mtbench.envs.parkour.terrains import TERRAIN_NAMES as PARKOUR_TERRAINS
+from parkour_collision import TROT_HZ, controller_targets
+
+
+def is_parkour(env_name: str) -> bool:
+    return env_name in PARKOUR_SETTINGS or env_name in PARKOUR_TERRAINS
 
 
 def _sync(device: torch.device) -> None:
@@ -33,7 +47,8 @@ def _sync(device: torch.device) -> None:
 
 
 def _contacts_per_world(env) -> float:
-    return sum(float(wp.to_torch(s.sim.data.nacon)[0]) for _, s in env.blocks) / env.batch_size[0]
+    sims = [env.sim] if hasattr(env, "sim") else [s.sim for _, s in env.blocks]
+    return sum(float(wp.to_torch(sim.data.nacon)[0]) for sim in sims) / env.batch_size[0]
 
 
 def run_scripted(env, warmup: int) -> tuple[float, int, float, TensorDictBase]:
@@ -55,11 +70,23 @@ def run_scripted(env, warmup: int) -> tuple[float, int, float, TensorDictBase]:
     return elapsed, len(contacts), sum(contacts) / len(contacts), env.pop_episode_stats()
 
 
-def run_random(env, steps: int, warmup: int) -> tuple[float, int, float, TensorDictBase]:
-    """``warmup`` + ``steps`` steps of uniform random actions, timed as a whole after the warm-up."""
+def _actions(env, policy: str, count: int) -> torch.Tensor:
+    """``[count, N, A]`` actions: uniform in [-1, 1] (``random``), zero (``stand``) or the Parkour trot cycle."""
+    n, dim = env.batch_size[0], env.action_spec.shape[-1]
+    if policy == "random":
+        gen = torch.Generator(device=env.device).manual_seed(0)
+        return torch.rand(count, n, dim, generator=gen, device=env.device) * 2 - 1
+    if policy == "stand":
+        return torch.zeros(count, n, dim, device=env.device)
+    cycle = int(round(1.0 / (TROT_HZ * 0.02)))
+    offsets = (controller_targets("trot", cycle).to(env.device) - env.q_default)[None].expand(n, -1, -1)
+    return offsets.permute(1, 0, 2).repeat(count // cycle + 1, 1, 1)[:count].contiguous()
+
+
+def run_timed(env, steps: int, warmup: int, policy: str = "random") -> tuple[float, int, float, TensorDictBase]:
+    """``warmup`` + ``steps`` steps of precomputed actions, timed as a whole after the warm-up."""
     td = env.reset()
-    gen = torch.Generator(device=env.device).manual_seed(0)
-    actions = torch.rand(warmup + steps, env.batch_size[0], 4, generator=gen, device=env.device) * 2 - 1
+    actions = _actions(env, policy, warmup + steps)
     for i in range(warmup):
         td["action"] = actions[i]
         _, td = env.step_and_maybe_reset(td)
@@ -75,11 +102,23 @@ def run_random(env, steps: int, warmup: int) -> tuple[float, int, float, TensorD
 
 def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, substeps: int | None,
             parallel_streams: bool = True, torch_graphs: bool = True, policy: str = "random",
-            robot_collision: str = "primitive", box_box: str = "primitive") -> dict:
-    overrides = {"parallel_streams": parallel_streams, "torch_graphs": torch_graphs,
-                 "robot_collision": robot_collision, "box_box_collider": box_box}
-    if substeps is not None:
-        overrides["substeps"] = substeps
+            robot_collision: str = "primitive", box_box: str = "primitive", terrain_collision: str = "legs",
+            terrain_representation: str = "grid", num_rows: int = 10) -> dict:
+    parkour = is_parkour(env_name)
+    if parkour:
+        if policy == "scripted":
+            raise ValueError("--policy scripted is for Meta-World; Parkour takes trot, stand or random")
+        overrides = {"torch_graphs": torch_graphs, "terrain_collision": terrain_collision,
+                     "terrain_representation": terrain_representation, "num_rows": num_rows}
+        collision = f"{terrain_collision} on {terrain_representation}"
+    else:
+        if policy in ("trot", "stand"):
+            raise ValueError(f"--policy {policy} is for Parkour; Meta-World takes random or scripted")
+        overrides = {"parallel_streams": parallel_streams, "torch_graphs": torch_graphs,
+                     "robot_collision": robot_collision, "box_box_collider": box_box}
+        collision = f"{robot_collision} hand, {box_box} box-box"
+        if substeps is not None:
+            overrides["substeps"] = substeps
     if policy == "scripted":
         overrides["random_start_progress"] = False  # every world runs exactly one episode
     t0 = time.perf_counter()
@@ -89,22 +128,24 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         elapsed, steps, contacts, stats = run_scripted(env, warmup)
         success = float((stats["success"] / stats["episodes"].clamp_min(1)).mean())
     else:
-        elapsed, steps, contacts, stats = run_random(env, steps, warmup)
+        elapsed, steps, contacts, stats = run_timed(env, steps, warmup, policy)
         success = float("nan")
-    mode = ("torch stages graphed" if torch_graphs and env.device.type == "cuda" else "torch stages eager") + (
-        ", block streams" if parallel_streams else ", one stream")
+    mode = "torch stages graphed" if torch_graphs and env.device.type == "cuda" else "torch stages eager"
+    if not parkour:
+        mode += ", block streams" if parallel_streams else ", one stream"
+    sim_substeps = env.sim.substeps if parkour else env.blocks[0][1].sim.substeps
     return {
         "env": env_name,
         "num_envs": num_envs,
-        "substeps": env.blocks[0][1].sim.substeps,
+        "substeps": sim_substeps,
         "env_steps_per_s": num_envs * steps / elapsed,
-        "physics_steps_per_s": num_envs * steps * env.blocks[0][1].sim.substeps / elapsed,
+        "physics_steps_per_s": num_envs * steps * sim_substeps / elapsed,
         "ms_per_step": 1e3 * elapsed / steps,
         "build_s": build_s,
         "unhealthy_resets": float(stats["unhealthy"].sum()),
         "mode": mode,
         "policy": policy,
-        "collision": f"{robot_collision} hand, {box_box} box-box",
+        "collision": collision,
         "contacts_per_world": contacts,
         "success": success,
     }
@@ -120,11 +161,19 @@ def main() -> None:
     parser.add_argument("--substeps", type=int, default=None)
     parser.add_argument("--one-stream", action="store_true", help="all task blocks on one CUDA stream")
     parser.add_argument("--eager-torch", action="store_true", help="do not capture the env's torch stages")
-    parser.add_argument("--policy", choices=("random", "scripted"), default="random",
-                        help="scripted: one episode of each task's scripted controller (contact-rich)")
+    parser.add_argument("--policy", choices=("random", "scripted", "trot", "stand"), default=None,
+                        help="scripted: one episode of each Meta-World task's scripted controller (contact-rich); "
+                             "trot / stand: Parkour controllers (default: random for Meta-World, trot for Parkour)")
     parser.add_argument("--robot-collision", choices=("primitive", "mesh"), default="primitive")
     parser.add_argument("--box-box", choices=("primitive", "gjk"), default="primitive")
+    parser.add_argument("--terrain-collision", choices=("feet", "legs", "all"), default="legs",
+                        help="Parkour: robot geoms that touch the terrain")
+    parser.add_argument("--terrain-representation", choices=("tiles", "grid"), default="tiles",
+                        help="Parkour: one heightfield per tile (default) or one for the whole grid")
+    parser.add_argument("--num-rows", type=int, default=10, help="Parkour: difficulty rows of the terrain grid")
     args = parser.parse_args()
+    if args.policy is None:
+        args.policy = "trot" if is_parkour(args.env) else "random"
     name = torch.cuda.get_device_name() if args.device.startswith("cuda") else platform.processor() or "cpu"
     print(f"device: {name}; torch {torch.__version__}; date {time.strftime('%Y-%m-%d')}")
     print("| env | envs | policy | collision | mode | substeps | env steps/s | physics steps/s | ms/step | "
@@ -133,7 +182,9 @@ def main() -> None:
     for n in args.num_envs:
         r = measure(args.env, n, args.device, args.steps, args.warmup, args.substeps,
                     parallel_streams=not args.one_stream, torch_graphs=not args.eager_torch, policy=args.policy,
-                    robot_collision=args.robot_collision, box_box=args.box_box)
+                    robot_collision=args.robot_collision, box_box=args.box_box,
+                    terrain_collision=args.terrain_collision, terrain_representation=args.terrain_representation,
+                    num_rows=args.num_rows)
         print(f"| {r['env']} | {r['num_envs']} | {r['policy']} | {r['collision']} | {r['mode']} | {r['substeps']} | "
               f"{r['env_steps_per_s']:,.0f} | {r['physics_steps_per_s']:,.0f} | {r['ms_per_step']:.2f} | "
               f"{r['contacts_per_world']:.2f} | {r['success']:.1%} | {r['build_s']:.1f} | "

@@ -8,6 +8,8 @@ import torch
 from torchrl.envs import EnvBase
 
 from .metaworld import ALL_TASK_NAMES, MetaWorldEnv, benchmark_tasks
+from .parkour.settings import SETTINGS as PARKOUR_SETTINGS
+from .parkour.terrains import TERRAIN_NAMES as PARKOUR_TERRAINS
 
 # name -> (benchmark, resample object/goal at every reset?)
 METAWORLD_SETS: dict[str, tuple[str, bool]] = {
@@ -30,7 +32,14 @@ def split_envs(num_envs: int, num_tasks: int) -> list[int]:
 
 def setting_names() -> list[str]:
     """Every name ``make_env`` accepts as a string (sets and single tasks)."""
-    return sorted(METAWORLD_SETS) + sorted(ALL_TASK_NAMES)
+    return sorted(METAWORLD_SETS) + sorted(ALL_TASK_NAMES) + sorted(PARKOUR_SETTINGS) + sorted(PARKOUR_TERRAINS)
+
+
+def _is_parkour(name: str | Sequence[str]) -> bool:
+    if isinstance(name, str):
+        return name in PARKOUR_SETTINGS or name in PARKOUR_TERRAINS
+    names = list(name)
+    return bool(names) and all(n in PARKOUR_TERRAINS for n in names)
 
 
 def make_env(
@@ -42,15 +51,24 @@ def make_env(
     """Build a batched multi-task env.
 
     Args:
-        name: a setting (``"mt10"``, ``"mt10_rand"``, ``"mt50"``, ``"mt50_rand"``), one task name (``"reach"``)
-            or a list of task names (its own multi-task setting; ``rand`` defaults to True there).
-        num_envs: total worlds (split evenly, MTBench style) or one count per task. Defaults to 1 per task.
+        name: a Meta-World setting (``"mt10"``, ``"mt10_rand"``, ``"mt50"``, ``"mt50_rand"``), one task name
+            (``"reach"``) or a list of task names (its own multi-task setting; ``rand`` defaults to True there); or a
+            Parkour setting (``"parkour_flat"``, ``"parkour_easy"``, ``"parkour_hard"``, ``"parkour_hard_cl"``), one
+            terrain name or a list of terrain names (see :func:`~mtbench.envs.parkour.settings.make_parkour_env`).
+        num_envs: total worlds (split evenly, MTBench style) or, for Meta-World, one count per task. Defaults to 1
+            per task (per terrain column for Parkour).
         device: torch device (default: ``cuda`` if available, else ``cpu``).
         **overrides: forwarded to :class:`~mtbench.envs.metaworld.MetaWorldEnv` (``seed``, ``rand``,
-            ``reward_scale``, ``episode_length``, ``substeps``, ``robot_collision``, ``box_box_collider``, ...).
+            ``reward_scale``, ``episode_length``, ``substeps``, ``robot_collision``, ``box_box_collider``, ...) or to
+            ``make_parkour_env`` (``num_rows``, ``terrain_seed``, ``seed``, ``episode_length``,
+            ``terrain_collision``, ``terrain_representation``, ...).
     """
     if device is None:
         device = "cuda" if torch.cuda.is_available() else "cpu"
+    if _is_parkour(name):
+        from .parkour.settings import make_parkour_env
+
+        return make_parkour_env(name, num_envs, device, **overrides)
     if isinstance(name, str):
         if name in METAWORLD_SETS:
             benchmark, rand = METAWORLD_SETS[name]

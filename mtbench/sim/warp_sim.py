@@ -101,6 +101,8 @@ class WarpSim:
             overflow is reported per world by :meth:`unhealthy` instead).
         box_box_collider: ``"primitive"``: MuJoCo C's box-box routine (up to 8 contacts, as in MuJoCo C);
             ``"gjk"``: MuJoCo Warp's default general convex collider (GJK/EPA, up to 4 contacts).
+        contact_forces: after the substeps of every :meth:`step`, also compute the net contact force on every body
+            (``mjw.rne_postconstraint``), read through :attr:`body_contact_force`.
     """
 
     def __init__(
@@ -117,6 +119,7 @@ class WarpSim:
         reset_key: int = 0,
         warn_overflow: bool = False,
         box_box_collider: str = "primitive",
+        contact_forces: bool = False,
     ) -> None:
         if box_box_collider not in BOX_BOX_COLLIDERS:
             raise ValueError(f"unknown box_box_collider {box_box_collider!r}; valid choices: "
@@ -134,6 +137,7 @@ class WarpSim:
             self.device = torch.device(self.wp_device)
         self.use_graph = use_graph
         self.batched_fields = tuple(batched_fields)
+        self.contact_forces = bool(contact_forces)
         self._has_key = mjm.nkey > 0
         if self._has_key and not 0 <= reset_key < mjm.nkey:
             raise ValueError(f"reset_key {reset_key} out of range for a model with {mjm.nkey} keyframes")
@@ -181,6 +185,7 @@ class WarpSim:
         self.time = wp.to_torch(d.time)
         self._overflow = wp.to_torch(d.overflow)
         self._geom_xpos = wp.to_torch(d.geom_xpos)
+        self._cfrc_ext = wp.to_torch(d.cfrc_ext)
         self._field_views: dict[str, torch.Tensor] = {}
         self._static_geoms = self._static_geom_table()
         self._graphs: dict[str, object] = {}
@@ -200,6 +205,8 @@ class WarpSim:
     def _step_impl(self) -> None:
         for _ in range(self.substeps):
             mjw.step(self.model, self.data)
+        if self.contact_forces:  # forces of the last substep's contacts and constraint solution
+            mjw.rne_postconstraint(self.model, self.data)
         mjw.kinematics(self.model, self.data)
 
     def _per_world_float_arrays(self) -> list[wp.array]:
@@ -351,6 +358,24 @@ class WarpSim:
                 torch.tensor(d.geom_xpos[ids] - d.xpos[body], dtype=torch.float32, device=self.device).reshape(-1, 3),
             )
         return table
+
+    def set_const(self) -> None:
+        """Recompute the model constants derived from per-world masses, inertias and CoM offsets
+        (``body_subtreemass``, ``body_invweight0``, ``dof_invweight0``, ...) after writing the batched fields
+        through :meth:`model_field`; derived fields that are batched too get per-world values. Eager (not
+        captured): call it after changing the model, not per step. The state of every world is kept."""
+        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._wp_stream) if self._wp_stream else _null():
+            mjw.set_const(self.model, self.data)
+        if self.stream is not None:
+            self.stream.synchronize()
+
+    @property
+    def body_contact_force(self) -> torch.Tensor:
+        """Zero-copy view ``[nworld, nbody, 3]``: net force of all contacts on each body (world frame, newtons) at
+        the last substep of the last :meth:`step` (IsaacGym's net contact force). Needs ``contact_forces=True``."""
+        if not self.contact_forces:
+            raise ValueError("body_contact_force needs contact_forces=True when the WarpSim is created")
+        return self._cfrc_ext[..., 3:]
 
     @property
     def geom_xpos(self) -> torch.Tensor:
