@@ -597,6 +597,37 @@ def test_peg_unplug_side_layout() -> None:
     assert max(ys) - min(ys) == pytest.approx(0.165, abs=3e-3)
 
 
+def test_goals_of_the_reset_ranges_lie_in_the_hand_workspace() -> None:
+    """Every corner of each reset box gives goals (and fixture handles) inside the TCP workspace."""
+    from itertools import product
+
+    from mtbench.envs.metaworld.task import HAND_HIGH, HAND_LOW
+
+    offsets = {  # goal relative to the sampled position (tasks whose goal is not sampled itself)
+        "faucet_close": [(-0.175, 0.0, 0.125)], "faucet_open": [(0.175, 0.0, 0.125)],
+        "handle_press": [(0.0, -0.216, 0.075), (0.0, -0.216, 0.172)],
+        "handle_pull": [(0.0, -0.216, 0.172), (0.0, -0.216, 0.072)],
+        "handle_press_side": [(0.216, 0.0, 0.075), (0.216, 0.0, 0.172)],
+        "handle_pull_side": [(0.216, 0.0, 0.172), (0.216, 0.0, 0.072)],
+        "lever_pull": [lever_task.GOAL_OFFSET, (0.12, -0.2, 0.25)],
+        "peg_unplug_side": [plug_task.GOAL_FROM_WALL, (0.0, -0.11, plug_task.PLUG_REST_Z)],
+        "hammer": [(0.0, 0.0, 0.0)], "hand_insert": [(0.0, 0.0, 0.0)],
+    }
+    low, high = np.array(HAND_LOW), np.array(HAND_HIGH)
+    for name in GROUP_B:
+        cls = TASKS[name]
+        lo, hi = np.array(cls.reset_low), np.array(cls.reset_high)
+        for corner in product(*zip(lo, hi)):
+            corner = np.array(corner)
+            points = [corner[:3] + off for off in offsets[name]]
+            if name == "hand_insert":
+                points.append(corner[3:6])
+            if name == "hammer":
+                points.append(HAMMER_GOAL)
+            for p in points:
+                assert np.all(p >= low) and np.all(p <= high), (name, p)
+
+
 # ------------------------------------------------------------------------------------------------------------------
 # scripted success
 # ------------------------------------------------------------------------------------------------------------------
