@@ -39,7 +39,8 @@ def peg_unplug_side_reward(action: torch.Tensor, head: torch.Tensor, goal: torch
         grasp    = caging(head; obj_radius .02, pad_success_thresh .05, object_reach_radius 0, xz_thresh .005,
                           medium density)
         r = hamacher(grasp, in_place)
-        r += 1 + 5·in_place  if ‖head + (0, −0.06, 0) − tcp‖ < .02 and finger_opening > 0 and head_z − .01 > head_init_z
+        r += 1 + 5·in_place  if ‖head + (0, −0.06, 0) − tcp‖ < .02 and finger_opening > 0
+                               and head_z − .01 > head_init_z
     """
     in_place = tolerance((head - goal).norm(dim=-1), bounds=(0.0, TARGET_RADIUS),
                          margin=(head_init - goal).norm(dim=-1), sigmoid="long_tail")
