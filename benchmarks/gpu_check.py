@@ -35,6 +35,7 @@ def main() -> None:
         env._core_step(torch.rand(n, action_dim, generator=gen, device=env.device) * 2 - 1)
     assert all(stage.captured for stage in env._stages), "stages were not captured"
     worst_obs, worst_rew, done_mismatch, resets = 0.0, 0.0, 0, 0
+    col_diff = torch.zeros(env.observation_spec["observation"].shape[-1], device=env.device)
     for _ in range(trials):
         state = copy.deepcopy(env.get_extra_state())
         action = torch.rand(n, action_dim, generator=gen, device=env.device) * 2 - 1
@@ -47,12 +48,15 @@ def main() -> None:
         for stage in env._stages:
             stage.enabled = True
         env.set_extra_state(after)  # continue from the graphed trajectory
-        worst_obs = max(worst_obs, float((graphed["observation"] - eager["observation"]).abs().max()))
+        diff = (graphed["observation"] - eager["observation"]).abs()
+        col_diff = torch.maximum(col_diff, diff.amax(0))
+        worst_obs = max(worst_obs, float(diff.max()))
         worst_rew = max(worst_rew, float((graphed["reward"] - eager["reward"]).abs().max()))
         done_mismatch += int((graphed["done"] != eager["done"]).sum())
         resets += int(graphed["done"].sum())
     print(f"graph vs eager over {trials} steps x {n} worlds ({resets} resets): max |d obs| {worst_obs:.3e}, "
           f"max |d reward| {worst_rew:.3e}, done mismatches {done_mismatch}", flush=True)
+    print("largest observation differences by field:", _field_diffs(env, col_diff.cpu()), flush=True)
     td = env.rollout(200, break_when_any_done=False)
     # TorchRL marks the ("next", "observation") of autoreset steps as unknown (NaN); every observation the
     # policy sees is in "observation"
@@ -64,6 +68,18 @@ def main() -> None:
     ok = worst_obs < 1e-3 and worst_rew < 1e-2 and done_mismatch == 0 and finite
     print("GPU CHECK", "PASSED" if ok else "FAILED")
     sys.exit(0 if ok else 1)
+
+
+def _field_diffs(env, col_diff: torch.Tensor) -> dict[str, float]:
+    """Max graph-vs-eager difference per named observation field (the env family's layout module)."""
+    if type(env).__name__ == "ParkourEnv":
+        from mtbench.envs.parkour.observation import SLICES
+    else:
+        from mtbench.envs.metaworld.observation import FIELD
+
+        SLICES = {name: f.slice for name, f in FIELD.items()}
+    diffs = {name: float(col_diff[sl].max()) for name, sl in SLICES.items()}
+    return {k: round(v, 6) for k, v in sorted(diffs.items(), key=lambda kv: -kv[1])[:6] if v > 0}
 
 
 if __name__ == "__main__":
