@@ -383,3 +383,10 @@ def mtbench_gripper_openness(left_pad: Tensor, right_pad: Tensor) -> Tensor:
     ``[N]`` from pad positions ``[N, 3]``. The Panda's pads are 0.56 mm apart when closed (closedness 0.994) and
     10.1 cm apart when open (openness 1)."""
     return (torch.linalg.vector_norm(right_pad - left_pad, dim=-1) / MTBENCH_OPEN_DISTANCE).clamp(0.0, 1.0)
+
+
+def scaled_norm(d: Tensor, scale: tuple[float, float, float]) -> Tensor:
+    """``‖d · scale‖`` for vectors ``[..., 3]`` with a per-axis scale given as Python floats (MTBench's
+    ``torch.norm(err * scale)``; no host-to-device copy)."""
+    return torch.linalg.vector_norm(torch.stack([d[..., 0] * scale[0], d[..., 1] * scale[1], d[..., 2] * scale[2]],
+                                                dim=-1), dim=-1)

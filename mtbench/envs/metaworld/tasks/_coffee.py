@@ -94,7 +94,3 @@ def place_mug_task(task, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) ->
     task.masked_set(s.obj_init_pos, mug, mask)
     task.masked_set(s.goal, vec[:, 3:6], mask)
 
-
-def scaled_norm(d: torch.Tensor, scale: tuple[float, float, float]) -> torch.Tensor:
-    """``‖d · scale‖`` for vectors ``[..., 3]`` with the scale as Python floats (no host-to-device copy)."""
-    return torch.stack([d[..., 0] * scale[0], d[..., 1] * scale[1], d[..., 2] * scale[2]], dim=-1).norm(dim=-1)

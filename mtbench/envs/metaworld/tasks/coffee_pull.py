@@ -5,9 +5,15 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import gripper_caging_reward, hamacher_product, mtbench_gripper_openness, tolerance
+from ..reward_utils import (
+    gripper_caging_reward,
+    hamacher_product,
+    mtbench_gripper_openness,
+    scaled_norm,
+    tolerance,
+)
 from ..task import MetaWorldTask, Objects, TaskState
-from ._coffee import SCENE, CoffeeSceneMixin, edit_coffee_scene, place_mug_task, scaled_norm
+from ._coffee import SCENE, CoffeeSceneMixin, edit_coffee_scene, place_mug_task
 
 IN_PLACE_SCALE = (2.0, 2.0, 1.0)  # MTBench's specialized_kwargs["scale"] (x and y scaled alike: same in our frame)
 TARGET_RADIUS = 0.05
