@@ -22,14 +22,15 @@ WALL_OFFSET = (0.05, -0.30)  # wall (x, y) relative to the box (MTBench: box + (
 SUCCESS_TOL = 0.01
 
 
-def button_press_wall_reward(tcp: torch.Tensor, obj: torch.Tensor, init_tcp: torch.Tensor, goal: torch.Tensor,
-                        tcp_closed: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+def button_press_wall_reward(tcp: torch.Tensor, obj: torch.Tensor, obj_init: torch.Tensor, init_tcp: torch.Tensor,
+                             goal: torch.Tensor, tcp_closed: torch.Tensor
+                             ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """MTBench ``button_press_wall`` dense term before its ``* .01``: ``2 · H(tcp_closed, near_button)``, with
-    ``near_button = tol(‖obj − tcp‖, (0, .01), margin ‖obj − init_tcp‖, long_tail)``. Returns ``(dense,
+    ``near_button = tol(‖obj − tcp‖, (0, .01), margin ‖obj_init − init_tcp‖, long_tail)``. Returns ``(dense,
     button_pressed, ‖obj − tcp‖)``; ``button_pressed = tol(|obj_y − goal_y|, (0, .005), margin .06, long_tail)``
     feeds the success reward."""
     tcp_to_obj = (obj - tcp).norm(dim=-1)
-    tcp_to_obj_init = (obj - init_tcp).norm(dim=-1)  # MTBench: the *current* button point
+    tcp_to_obj_init = (obj_init - init_tcp).norm(dim=-1)
     obj_to_target = (obj[..., 1] - goal[..., 1]).abs()
     dense, pressed = button_terms(tcp_to_obj, tcp_to_obj_init, obj_to_target, tcp_closed, NEAR_BOUND)
     return dense, pressed, tcp_to_obj
@@ -84,7 +85,7 @@ class ButtonPressWall(ButtonSceneMixin, MetaWorldTask):
 
     def _terms(self, s: TaskState) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         tcp_closed = 1.0 - mtbench_gripper_openness(s.left_pad, s.right_pad)
-        return button_press_wall_reward(s.tcp, s.obj_pos, s.init_tcp, s.goal, tcp_closed)
+        return button_press_wall_reward(s.tcp, s.obj_pos, s.obj_init_pos, s.init_tcp, s.goal, tcp_closed)
 
     def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return self._terms(s)[0]

@@ -22,21 +22,23 @@ TARGET_RADIUS = 0.06  # MTBench ("changed from .07")
 REACH_RADIUS = 0.005
 
 
-def dial_turn_reward(tcp: torch.Tensor, obj: torch.Tensor, goal: torch.Tensor, push_init: torch.Tensor,
+def dial_turn_reward(tcp: torch.Tensor, obj: torch.Tensor, goal: torch.Tensor, obj_start: torch.Tensor,
                      init_tcp: torch.Tensor, tcp_closed: torch.Tensor) -> torch.Tensor:
     """MTBench ``dial_turn`` dense term before its ``* .01`` (``[n]``)::
 
         push     = obj + (0.05, 0.02, 0.09)                      # the point the hand should reach
-        in_place = tol(‖obj − goal‖, (0, .06), margin |‖push_init − goal‖ − .06|, long_tail)
-        reach    = H(tol(‖push − tcp‖, (0, .005), margin |‖push_init − init_tcp‖ − .005|, gaussian), tcp_closed)
+        in_place = tol(‖obj − goal‖, (0, .06), margin |‖obj_start − goal‖ − .06|, long_tail)
+        reach    = H(tol(‖push − tcp‖, (0, .005), margin |‖obj_start − init_tcp‖ − .005|, gaussian), tcp_closed)
         r = H(reach, in_place)
+
+    ``obj_start`` is MTBench's ``dial_push_position_init``: the observed point at the start, *without* the push
+    offset (Meta-World's ``dial_push_position`` includes it).
     """
     push = offset(obj, *PUSH_FROM_TIP)
-    target_to_obj_init = (push_init - goal).norm(dim=-1)  # MTBench (and Meta-World): the push point's distance
     in_place = tolerance((obj - goal).norm(dim=-1), bounds=(0.0, TARGET_RADIUS),
-                         margin=(target_to_obj_init - TARGET_RADIUS).abs(), sigmoid="long_tail")
+                         margin=((obj_start - goal).norm(dim=-1) - TARGET_RADIUS).abs(), sigmoid="long_tail")
     reach = tolerance((push - tcp).norm(dim=-1), bounds=(0.0, REACH_RADIUS),
-                      margin=((push_init - init_tcp).norm(dim=-1) - REACH_RADIUS).abs(), sigmoid="gaussian")
+                      margin=((obj_start - init_tcp).norm(dim=-1) - REACH_RADIUS).abs(), sigmoid="gaussian")
     reach = hamacher_product(reach, tcp_closed)
     return hamacher_product(reach, in_place)
 
@@ -77,10 +79,10 @@ class DialTurn(MetaWorldTask):
       reward and success value is the same function of the turned angle. Success needs a turn of at least
       :func:`dial_angle_for_success` (1.81 rad; Meta-World: 1.37 rad with radius 0.07).
     * Dense reward: :func:`dial_turn_reward` (MTBench before ``* .01``; closedness ``1 − ‖pads‖ / 0.095``).
-      ``push_init`` (MTBench's ``dial_push_position_init``) is measured at every reset (MTBench: once, at the first
-      observation of the run, like ``init_tcp``).
+      MTBench's ``dial_push_position_init`` (the observed point at the start, buffer ``obj_start``) is measured at
+      every reset (MTBench: once, at the first observation of the run, like ``init_tcp``).
     * Success: ``‖obj − goal‖ <= 0.06``; success steps pay 10.
-    * Differences: ``init_tcp`` and ``push_init`` per reset; Meta-World's ``tolerance`` inside the bounds (MTBench's
+    * Differences: ``init_tcp`` and ``obj_start`` per reset; Meta-World's ``tolerance`` inside the bounds (MTBench's
       returns 0 there when the margin is positive).
     """
 
@@ -90,7 +92,7 @@ class DialTurn(MetaWorldTask):
     scene = SceneSpec("sawyer_dial.xml", hand_init_pos=(0.0, 0.6, 0.2))
     reset_low = (-0.1, 0.7, 0.0)
     reset_high = (0.1, 0.8, 0.0)
-    buffers = {"push_init": (3,)}
+    buffers = {"obj_start": (3,)}
 
     @classmethod
     def edit_spec(cls, spec: mujoco.MjSpec) -> None:
@@ -111,14 +113,14 @@ class DialTurn(MetaWorldTask):
         self.masked_set(s.goal, offset(dial, *GOAL_FROM_DIAL), mask)
 
     def after_reset(self, s: TaskState, mask: torch.Tensor) -> None:
-        self.masked_set(s.buffers["push_init"], offset(s.obj_pos, *PUSH_FROM_TIP), mask)
+        self.masked_set(s.buffers["obj_start"], s.obj_pos, mask)
 
     def objects(self, s: TaskState) -> Objects:
         return Objects(s.sim.site_xpos[:, self.tip_site], s.sim.xquat[:, self.dial_body])
 
     def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         tcp_closed = 1.0 - mtbench_gripper_openness(s.left_pad, s.right_pad)
-        return dial_turn_reward(s.tcp, s.obj_pos, s.goal, s.buffers["push_init"], s.init_tcp, tcp_closed)
+        return dial_turn_reward(s.tcp, s.obj_pos, s.goal, s.buffers["obj_start"], s.init_tcp, tcp_closed)
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return dial_turn_success(s.obj_pos, s.goal)
