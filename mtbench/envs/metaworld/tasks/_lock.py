@@ -31,6 +31,9 @@ LOCK_JOINT = "lock_joint"
 LOCK_FROM_SAFE = (0.0, -0.118, 0.061)  # MTBench: obj_init_pos = root + (-.118, 0, .061) in its frame
 LOCKED = 1.57  # the joint's upper limit (MTBench resets door_unlock there, door_lock at the lower limit 0)
 LOCK_LENGTH = 0.1  # MTBench's LOCK_LENGTH: margin of the lock_pressed / pushed terms
+# The 1 g lever's joint limits are mass-scaled soft constraints: with Meta-World's armature (0.001) a hand shoving
+# it (20 N m) pushes it 0.12 rad past its limit even with the stiff limit; 0.01 keeps it within 2 mrad.
+LOCK_ARMATURE = 0.01
 # reset: safe at x ~ U[-0.1, 0.1], y ~ U[0.8, 0.85], z = 0.15 (MTBench (.20, -.1) .. (.25, .1) at table + .3/2,
 # mapped x = -y_mtb, y = x_mtb + 0.6, z = z_mtb - 1.027; the same as Meta-World v3)
 RESET_LOW = (-0.1, 0.8, 0.15)
@@ -39,10 +42,11 @@ RESET_HIGH = (0.1, 0.85, 0.15)
 
 def edit_lock_scene(spec: mujoco.MjSpec) -> None:
     """Name the lever's hinge ``lock_joint``; the lever turns on it alone (no contacts with the door or the safe,
-    stiff limits)."""
+    stiff limits, armature ``LOCK_ARMATURE``)."""
     (hinge,) = [j for j in spec.joints if j.parent.name == LOCK_BODY]
     hinge.name = LOCK_JOINT
     guide_by_joint(spec, LOCK_BODY, LOCK_JOINT, ("door_link", "doorlockA"))
+    hinge.armature = LOCK_ARMATURE
 
 
 class LockSceneMixin:
