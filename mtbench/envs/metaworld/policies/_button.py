@@ -1,11 +1,12 @@
 """Pressing helpers shared by the scripted policies of button_press, button_press_wall and
-button_press_topdown_wall (and coffee_button's approach logic).
+button_press_topdown_wall.
 
-Panda hand geometry that decides how a button facing the robot can be pressed (world frame, hand pointing down):
-the palm box spans ``TCP_y ± 0.102`` and ``TCP_z + 0.037 .. + 0.111``; with the gripper open each finger's outer
-face reaches ``TCP_y ± 0.0545`` at the tip (``TCP_z ± 0.009``) and ``± 0.066`` at its base (``TCP_z + 0.026 ..
-+ 0.045``). Closed fingers would let the palm hit the box after about 3 cm of travel; the outer face of the far
-(+y) finger of the open gripper is only 3.6 to 4.8 cm behind the palm's front end, which leaves room for the
+Panda hand geometry that decides how a button facing the robot can be pressed (relative to the TCP, hand pointing
+down): the palm box spans ``y ± 0.102``, ``z + 0.037 .. + 0.111``; with the gripper open the far (+y) finger's outer
+faces reach ``y + 0.060`` at the tip (``z - 0.0095 .. + 0.0085``), ``+ 0.069`` along its tapered middle (``z - 0.007
+.. + 0.027``) and ``+ 0.072`` at its base (``z + 0.025 .. + 0.045``); closed, the fingers reach ``y ± 0.009 / 0.018
+/ 0.021``. Pushed by closed fingers the button would let the palm's front end hit the box after about 3 cm of its 6
+cm travel; the open gripper's far finger is only 3 to 4 cm behind the palm's front end, which leaves room for the
 whole press.
 """
 
@@ -26,10 +27,10 @@ def press_forward(obs: torch.Tensor, tcp_above: float, contact_ahead: float, pre
     """Actions that press a button facing the robot (observed point = its front face, goal = that face at the end
     of the travel, MTBench's convention) by pushing it along +y with the open gripper's far finger.
 
-    ``tcp_above``: TCP height above the observed point while pushing; ``contact_ahead``: how far ahead (+y) of the
-    TCP the pushing face is; ``press_depth``: how far past the goal minus the travel... i.e. the final face
-    position relative to the goal (negative: short of the end of the travel). ``approach_z``: height at which the
-    hand flies to the staging point (default: the pushing height).
+    ``tcp_above``: TCP height above the observed point while pushing; ``contact_ahead``: nominal distance of the
+    pushing face ahead (+y) of the TCP; ``press_depth``: where the pushing target puts that face relative to the
+    goal (negative: short of the end of the travel; the stiff joint limit stops the button there anyway).
+    ``approach_z``: height at which the hand flies to the staging point (default: the pushing height).
     """
     o = parse(obs)
     hand, prev, button, goal = o["tcp"], o["prev_tcp"], o["obj_pos"], o["goal"]

@@ -1,9 +1,9 @@
 """Scripted button_press: push the button with the far finger of the open gripper (see ``_button``).
 
-The TCP stays 1 cm above the button's centre line: the fingertips then press the middle of the cap, the fingers'
-bases (2.6 cm above the TCP, 6.6 cm ahead of it) touch the cap's top edge, and the palm (3.7 cm above the TCP)
-passes over the cap. The hand pushes the face to 2 mm short of the end of the travel (the success window is the
-last centimetre); the palm's front end stays in front of the box.
+The TCP stays 1 cm above the button's centre line: the far finger's tapered middle and base (6.9 to 7.2 cm ahead of
+the TCP) press the upper half of the cap (radius 4.3 cm) and the palm (3.7 cm above the TCP) passes over it. The
+target puts the nominal pushing face at the end of the travel (the success window is its last centimetre); the
+palm's front end stays in front of the box.
 """
 
 from __future__ import annotations

@@ -1,11 +1,9 @@
 """Scripted button_press_wall: reach over the wall and push the button with the far finger of the open gripper.
 
-The wall (top at 0.15) stands 9.6 cm in front of the button's face, too close for the open fingers (13 cm across
-at their bases) to drop between them, so the TCP stays 4.3 cm above the button's centre line: the fingertips (0.9
-cm below the TCP) clear the wall and the far fingertip presses the top 1 cm of the cap (radius 4.3 cm) while the
-fingers' bases and the palm pass over it. The pushing face is the fingertip's outer face, 5.45 cm ahead of the TCP;
-the palm's front end is 4.75 cm ahead of it and meets the box's front after 5.65 cm of travel, past the success
-threshold (5 cm).
+The wall (top at 0.15) stands 9.6 cm in front of the button's face, too close for the open fingers (14 cm across at
+their bases) to drop between them, so the TCP stays 4.3 cm above the button's centre line: the fingertips (0.95 cm
+below the TCP) clear the wall and the far finger (6 to 7 cm ahead of the TCP) presses the top centimetre of the cap
+(radius 4.3 cm) while the palm passes over it, its front end clear of the box up to the end of the travel.
 """
 
 from __future__ import annotations
