@@ -370,3 +370,23 @@ def above_floor_funnel(
     hand_z = hand_pos[..., 2]
     below = tolerance(floor - hand_z, bounds=(0.0, z_tolerance), margin=floor / 2.0, sigmoid="long_tail")
     return torch.where(hand_z >= floor, 1.0, below)
+
+
+# --- added for group a ---
+# MTBench measures the gripper openness from the two finger-tip positions normalised by 0.095 m (its Franka's
+# fully open tip distance); Meta-World's ``obs[3]`` (``TaskState.gripper_open``) divides by 0.1 instead.
+MTBENCH_OPEN_DISTANCE = 0.095
+
+
+def mtbench_gripper_openness(left_pad: Tensor, right_pad: Tensor) -> Tensor:
+    """MTBench's ``clip(‖right_pad − left_pad‖ / 0.095, 0, 1)`` (1 = open; ``1 −`` it is its "tcp_closed"),
+    ``[N]`` from pad positions ``[N, 3]``. The Panda's pads are 0.56 mm apart when closed (closedness 0.994) and
+    10.1 cm apart when open (openness 1)."""
+    return (torch.linalg.vector_norm(right_pad - left_pad, dim=-1) / MTBENCH_OPEN_DISTANCE).clamp(0.0, 1.0)
+
+
+def scaled_norm(d: Tensor, scale: tuple[float, float, float]) -> Tensor:
+    """``‖d · scale‖`` for vectors ``[..., 3]`` with a per-axis scale given as Python floats (MTBench's
+    ``torch.norm(err * scale)``; no host-to-device copy)."""
+    return torch.linalg.vector_norm(torch.stack([d[..., 0] * scale[0], d[..., 1] * scale[1], d[..., 2] * scale[2]],
+                                                dim=-1), dim=-1)
