@@ -4,16 +4,16 @@ onto the goal, then hold it there.
 The Panda hand reaches 10.2 cm either side of the TCP along y (see ``_wall``): the puck is grasped with the TCP
 at most at ``IN_FRONT_Y`` (the open pads straddle the 4 cm puck up to 2.15 cm off centre and centre it while
 closing) and lifted there to ``OVER_Z`` (its bottom 2.5 cm above the wall) before it moves towards the goal; it
-is lowered only once above the goal, with the TCP kept at ``BEHIND_Y`` or further where the hand would otherwise
-overlap the wall (at most 2 cm short of a goal; the success radius is 5 cm)."""
+is lowered only once above the goal, with the TCP between the wall and the table's retaining wall where the hand
+would otherwise overlap them (``_wall.clear_of_wall``: at most 3 cm from a goal; the success radius is 5 cm)."""
 
 from __future__ import annotations
 
 import torch
 
 from ._common import action, parse
-from ._grasp import PUCK_CARRY_SPEED, PUCK_GRASP, grasp_phase, holding, move_lead
-from ._wall import IN_FRONT_Y, WALL_TOP_Z, clear_of_wall
+from ._grasp import PUCK_GRASP, grasp_phase, holding, move_lead
+from ._wall import CARRY_SPEED, IN_FRONT_Y, WALL_TOP_Z, clear_of_wall
 
 OVER_Z = WALL_TOP_Z + 0.045  # puck centre while crossing the wall (bottom 2.5 cm above it)
 STAGE_Y = IN_FRONT_Y - 0.01  # y of the puck while it is lifted
@@ -37,5 +37,5 @@ def policy(obs: torch.Tensor) -> torch.Tensor:
     above = (obj[:, :2] - final[:, :2]).norm(dim=-1) < ABOVE_GOAL
     obj_target = torch.where(above[:, None], final, torch.where(low[:, None], lift, over))
     target = torch.where(held[:, None], hand + obj_target - obj, target)
-    delta = move_lead(hand, prev, target, speed=torch.where(held, PUCK_CARRY_SPEED, 1.0))
+    delta = move_lead(hand, prev, target, speed=torch.where(held, CARRY_SPEED, 1.0))
     return action(delta, torch.where(close, 1.0, -1.0))

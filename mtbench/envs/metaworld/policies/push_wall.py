@@ -4,16 +4,16 @@ behind the wall, and hold it there.
 The Panda hand reaches 10.2 cm either side of the TCP along y (see ``_wall``): the puck is grasped with the TCP
 at most at ``IN_FRONT_Y`` (the open pads straddle the 4 cm puck up to 2.15 cm off centre and centre it while
 closing), carried sideways at that y to ``LANE_X`` beside the wall, forward along that lane until the hand is
-behind the wall, then sideways onto the goal, keeping the TCP at ``BEHIND_Y`` or further while the hand overlaps
-the wall in x (at most 2 cm short of a goal; the success radius is 5 cm)."""
+behind the wall, then sideways onto the goal, with the TCP between the wall and the table's retaining wall where
+the hand overlaps them (``_wall.clear_of_wall``: at most 3 cm from a goal; the success radius is 5 cm)."""
 
 from __future__ import annotations
 
 import torch
 
 from ._common import action, parse
-from ._grasp import PUCK_CARRY_SPEED, PUCK_GRASP, grasp_phase, holding, move_lead
-from ._wall import BEHIND_Y, BESIDE_X, IN_FRONT_Y, clear_of_wall
+from ._grasp import PUCK_GRASP, grasp_phase, holding, move_lead
+from ._wall import BEHIND_Y, BESIDE_X, CARRY_SPEED, IN_FRONT_Y, clear_of_wall
 
 CARRY_Z = 0.03  # puck centre while carried (1 cm above its resting height)
 LANE_X = BESIDE_X - 0.015  # TCP x while passing the wall
@@ -40,5 +40,5 @@ def policy(obs: torch.Tensor) -> torch.Tensor:
     onto_goal = clear_of_wall(torch.stack([goal[:, 0], goal[:, 1], torch.full_like(goal[:, 2], CARRY_Z)], dim=-1))
     obj_target = torch.where(behind[:, None], onto_goal, torch.where(in_lane[:, None], forward, sideways))
     target = torch.where(held[:, None], hand + obj_target - obj, target)
-    delta = move_lead(hand, prev, target, speed=torch.where(held, PUCK_CARRY_SPEED, 1.0))
+    delta = move_lead(hand, prev, target, speed=torch.where(held, CARRY_SPEED, 1.0))
     return action(delta, torch.where(close, 1.0, -1.0))

@@ -2,10 +2,10 @@
 
 Meta-World's wall spans x in [-0.02, 0.22], y in [0.74, 0.76] and rises to z = 0.12. The Panda hand reaches
 10.2 cm either side of the TCP along y, from 3.7 cm above it: with the TCP below ``LOW_Z`` and within the wall's
-x range (hand half width 2.5 cm), the TCP must stay ``BEHIND_WALL_Y`` or further, or the hand's rear end would be
-in the wall. So the policy aims at the goal moved back to that line where needed (at most 2.2 cm: the success
-radius is 5 cm) and travels at ``SAFE_Z`` (fingertips 1 cm below the TCP clear the wall top) until it is behind
-the wall.
+x range (hand half width 2.5 cm), the TCP must stay 11 cm behind the wall, or the hand's rear end would be in it,
+and 11 cm in front of the table's retaining wall (y = 0.98). So the policy aims at the goal moved to that band where
+needed (``_wall.clear_of_wall``: at most 3 cm; the success radius is 5 cm) and travels at ``SAFE_Z`` (fingertips
+1 cm below the TCP clear the wall top) until it is behind the wall.
 """
 
 from __future__ import annotations
