@@ -8,43 +8,23 @@ MTBench's wall (its own ``push_wall.xml`` asset: the same box, turned to lie acr
 is centred on x = 0 of our frame and sunk 3 cm into its table (9 cm above it); we keep Meta-World's wall, as the
 MT10 tasks keep Meta-World's fixtures.
 
-MTBench's push_wall and pick_place_wall rewards (``task_fns/push_wall.py``, ``pick_place_wall.py``) measure the
-object against a *midpoint* just behind the wall line with the distance scaled by ``in_place_scaling = (3, 1, 1)``
-in MTBench's frame: its x axis is our y axis (``x_mtb = y - 0.6``), so the scaling is ``(1, 3, 1)`` here (the
-forward distance counts three times; Meta-World's own ``(3, 1, 1)`` scales the lateral axis). Past the wall line
-(MTBench: ``obj_x_mtb >= 0.15``, i.e. ``obj_y >= WALL_LINE_Y``) the reward switches to the distance to the goal.
-Each task file composes its own reward from :func:`two_stage_in_place`.
+MTBench's push_wall and pick_place_wall rewards (``task_fns/push_wall.py``, ``pick_place_wall.py``) scale distances
+by ``in_place_scaling = (3, 1, 1)`` in MTBench's frame, whose x axis is our y axis (``x_mtb = y - 0.6``): the
+scaling is ``(1, 3, 1)`` here (:func:`scaled_norm`; the forward distance counts three times; Meta-World's own
+``(3, 1, 1)`` scales the lateral axis). Each task file composes its own reward.
 """
 
 from __future__ import annotations
 
 import torch
 
-from ..reward_utils import tolerance
-
 WALL_XML_CENTRE = (0.1, 0.75, 0.06)
 WALL_HALF_SIZE = (0.12, 0.01, 0.06)
-WALL_LINE_Y = 0.75  # MTBench: obj_x_mtb >= 0.15
-MIDPOINT_Y = 0.77  # MTBench: midpoint x_mtb = 0.17
 IN_PLACE_SCALING = (1.0, 3.0, 1.0)  # MTBench (3, 1, 1) in its frame
-TARGET_RADIUS = 0.05
-NEAR_OBJECT = 0.03  # MTBench: the hand counts as at the object within 3 cm
+MIDPOINT_Y = 0.77  # MTBench's midpoints: x_mtb = 0.17, just behind the wall's back face (y = 0.76)
 
 
-def _scaled_norm(v: torch.Tensor) -> torch.Tensor:
+def scaled_norm(v: torch.Tensor) -> torch.Tensor:
     """``‖v · IN_PLACE_SCALING‖`` for vectors ``[..., 3]`` (no host-to-device copy)."""
     sx, sy, sz = IN_PLACE_SCALING
     return torch.stack([v[..., 0] * sx, v[..., 1] * sy, v[..., 2] * sz], dim=-1).norm(dim=-1)
-
-
-def two_stage_in_place(obj: torch.Tensor, obj_init_pos: torch.Tensor, midpoint: torch.Tensor,
-                       goal: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """MTBench's ``(in_place_part1, in_place_part2)``: long-tail tolerances of the scaled object-to-midpoint
-    distance (margin: the same at reset) and of the object-to-goal distance (margin: the same at reset), both
-    with bounds ``(0, 0.05)``. Points ``[n, 3]``; returns two ``[n]`` tensors."""
-    part1 = tolerance(_scaled_norm(obj - midpoint), bounds=(0.0, TARGET_RADIUS),
-                      margin=_scaled_norm(obj_init_pos - midpoint), sigmoid="long_tail")
-    part2 = tolerance((obj - goal).norm(dim=-1), bounds=(0.0, TARGET_RADIUS),
-                      margin=(obj_init_pos - goal).norm(dim=-1), sigmoid="long_tail")
-    return part1, part2
-

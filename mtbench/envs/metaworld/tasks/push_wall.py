@@ -5,28 +5,34 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import gripper_caging_reward
+from ..reward_utils import gripper_caging_reward, tolerance
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState
-from ._wall import NEAR_OBJECT, TARGET_RADIUS, WALL_LINE_Y, two_stage_in_place
+from ._wall import MIDPOINT_Y, scaled_norm
 
 OBJ_Z = 0.02  # puck centre resting on the table
-# MTBench's midpoint (0.17, 0.1, 1.047) in its frame: beside the wall's left end (x -0.02), just behind its line
-MIDPOINT = (-0.1, 0.77, 0.02)
+TARGET_RADIUS = 0.05
+NEAR_OBJECT = 0.03
+PAST_WALL_Y = 0.75  # MTBench: obj_x_mtb >= 0.15, the wall's centre line
+# MTBench's midpoint (0.17, 0.1, 1.047) in its frame: beside the wall's left end (x -0.02), just behind it
+MIDPOINT = (-0.1, MIDPOINT_Y, 0.02)
 
 
 def push_wall_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: torch.Tensor, tcp: torch.Tensor,
                      left_pad: torch.Tensor, right_pad: torch.Tensor, goal: torch.Tensor, obj_init_pos: torch.Tensor,
                      init_tcp: torch.Tensor, midpoint: torch.Tensor) -> torch.Tensor:
     """Dense reward ``[n]`` (see :class:`PushWall`); points ``[n, 3]``, ``gripper_open`` ``[n]``, actions ``[n, 4]``."""
-    part1, part2 = two_stage_in_place(obj, obj_init_pos, midpoint, goal)
+    part1 = tolerance(scaled_norm(obj - midpoint), bounds=(0.0, TARGET_RADIUS),
+                      margin=scaled_norm(obj_init_pos - midpoint), sigmoid="long_tail")
+    part2 = tolerance((obj - goal).norm(dim=-1), bounds=(0.0, TARGET_RADIUS),
+                      margin=(obj_init_pos - goal).norm(dim=-1), sigmoid="long_tail")
     grasp = gripper_caging_reward(
         action, obj, obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
         left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos, init_tcp=init_tcp,
         medium_density=True,
     )
     near = ((obj - tcp).norm(dim=-1) < NEAR_OBJECT) & (gripper_open > 0)
-    past = near & (obj[:, 1] >= WALL_LINE_Y)
+    past = near & (obj[:, 1] >= PAST_WALL_Y)
     return torch.where(past, grasp + 5.0 + 3.0 * part2, torch.where(near, grasp + 1.0 + 4.0 * part1, grasp))
 
 
