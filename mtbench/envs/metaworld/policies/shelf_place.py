@@ -3,7 +3,9 @@ in front of the shelf, then carry it straight in onto the middle board at the go
 
 The goal lies 5 cm above the board's top face; the block (4 cm) held at the goal clears the board, and the hand
 (its underside 3.7 cm above the TCP, 20 cm long along y) fits between the side walls with its front end past the
-board's rear edge (the shelf has no back wall to collide with, as in MTBench)."""
+board's rear edge (the shelf has no back wall to collide with, as in MTBench). For goals right of the centre
+(x > 0) the forearm, which hangs 1 to 12 cm to the left (-x) of the TCP, can brush the shelf's left wall on the way
+in; the arm's free elbow gives way and the block still arrives."""
 
 from __future__ import annotations
 
