@@ -53,3 +53,17 @@ PUCK_GRASP = dict(above=0.06, xy_tol=0.01, grasp_tol=0.005, hold_tol=0.025,
                   held_below=0.6,  # openness: open 0.91, closed on the 4 cm puck ~0.48
                   empty_below=0.3)  # openness below which the gripper closed on nothing
 PUCK_CARRY_SPEED = 0.5  # |action| per axis while carrying the puck
+
+
+# --- added for group c ---
+# Grasp parameters for the 4 cm, 10 g objects of pick_out_of_hole and shelf_place: the fingers squeeze such a light
+# object's contacts about 5 mm deep each (openness ~0.30 closed on it, 0.48 on the 0.75 kg puck), so "closed on
+# nothing" (~0.11) is told apart at a lower openness.
+LIGHT_GRASP = dict(PUCK_GRASP, empty_below=0.2)
+
+
+def holding(hand: torch.Tensor, obj: torch.Tensor, opened: torch.Tensor, params: dict) -> torch.Tensor:
+    """``grasp_phase``'s "held" test against the object itself (hand within ``hold_tol`` of ``obj`` and the
+    openness between ``empty_below`` and ``held_below``), for policies that grasp at a point other than ``obj``."""
+    return ((hand - obj).norm(dim=-1) < params["hold_tol"]) & (opened < params["held_below"]) & (
+        opened > params["empty_below"])

@@ -1,0 +1,84 @@
+"""Push-wall: move a puck around a wall to a goal on the table behind it (Meta-World ``push-wall-v3``, MTBench
+``task_fns/push_wall.py``)."""
+
+from __future__ import annotations
+
+import torch
+
+from ..reward_utils import gripper_caging_reward, tolerance
+from ..scene import SceneSpec
+from ..task import FreeObjectTask, TaskState
+from ._wall import MIDPOINT_Y, scaled_norm
+
+OBJ_Z = 0.02  # puck centre resting on the table
+TARGET_RADIUS = 0.05
+NEAR_OBJECT = 0.03
+PAST_WALL_Y = 0.75  # MTBench: obj_x_mtb >= 0.15, the wall's centre line
+# MTBench's midpoint (0.17, 0.1, 1.047) in its frame: beside the wall's left end (x -0.02), just behind it
+MIDPOINT = (-0.1, MIDPOINT_Y, 0.02)
+
+
+def push_wall_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: torch.Tensor, tcp: torch.Tensor,
+                     left_pad: torch.Tensor, right_pad: torch.Tensor, goal: torch.Tensor, obj_init_pos: torch.Tensor,
+                     init_tcp: torch.Tensor, midpoint: torch.Tensor) -> torch.Tensor:
+    """Dense reward ``[n]`` (see :class:`PushWall`); points ``[n, 3]``, ``gripper_open`` ``[n]``, actions ``[n, 4]``."""
+    part1 = tolerance(scaled_norm(obj - midpoint), bounds=(0.0, TARGET_RADIUS),
+                      margin=scaled_norm(obj_init_pos - midpoint), sigmoid="long_tail")
+    part2 = tolerance((obj - goal).norm(dim=-1), bounds=(0.0, TARGET_RADIUS),
+                      margin=(obj_init_pos - goal).norm(dim=-1), sigmoid="long_tail")
+    grasp = gripper_caging_reward(
+        action, obj, obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
+        left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos, init_tcp=init_tcp,
+        medium_density=True,
+    )
+    near = ((obj - tcp).norm(dim=-1) < NEAR_OBJECT) & (gripper_open > 0)
+    past = near & (obj[:, 1] >= PAST_WALL_Y)
+    return torch.where(past, grasp + 5.0 + 3.0 * part2, torch.where(near, grasp + 1.0 + 4.0 * part1, grasp))
+
+
+def push_wall_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
+    """``‖obj − goal‖ < 0.05``."""
+    return (obj - goal).norm(dim=-1) < TARGET_RADIUS
+
+
+class PushWall(FreeObjectTask):
+    """Move the red puck (cylinder r 2 cm, h 4 cm, 0.75 kg) past Meta-World's wall (see ``_wall``) to the goal.
+
+    * Reset (MTBench ranges mapped ``x = -y_mtb``, ``y = x_mtb + 0.6``, ``z = z_mtb - 1.027``; equal to Meta-World
+      push-wall-v3's): puck x ~ U[-0.05, 0.05], y ~ U[0.6, 0.65], goal x ~ U[-0.05, 0.05], y ~ U[0.85, 0.9], both
+      at z = 0.02 (MTBench: table + 2 cm; Meta-World's goal takes the puck's height). Pairs closer than 15 cm in
+      xy are resampled (Meta-World's loop; it cannot trigger with these ranges; MTBench has none).
+    * Objects: the puck's pose (as Meta-World; MTBench also reported the wall's pose as object 2).
+    * Dense reward (MTBench, before its ``× 0.01``)::
+
+        part1 = tolerance(‖(obj − mid)·(1, 3, 1)‖, (0, .05), margin=‖(obj_init − mid)·(1, 3, 1)‖, long_tail)
+        part2 = tolerance(‖obj − goal‖, (0, .05), margin=‖obj_init − goal‖, long_tail)
+        grasp = gripper_caging(obj_radius=.015, pad_success_thresh=.05, object_reach_radius=.01,
+                               xz_thresh=.005, medium_density=True)
+        r = grasp;  if ‖tcp − obj‖ < .03 and gripper_open > 0:  r = grasp + 1 + 4·part1,
+                    and if also obj_y >= 0.75:                  r = grasp + 5 + 3·part2
+
+      with MTBench's fixed midpoint ``mid = (-0.1, 0.77, 0.02)`` (MTBench (0.17, 0.1, 1.047)) and its scaling
+      (3, 1, 1) of its x axis, our y (Meta-World: mid = (-0.05, 0.77, obj_z), scaling of x, and
+      ``hamacher(grasp, part1)`` with high-density caging).
+    * Success: ``‖obj − goal‖ < 0.05`` (MTBench; Meta-World ``≤ 0.07``).
+    """
+
+    name = "push_wall"
+    mtbench_id = 39
+    description = "Push a puck around a wall to a goal position behind it."
+    scene = SceneSpec("sawyer_push_wall_v3.xml", hand_init_pos=(0.0, 0.6, 0.2))
+    # puck x, y, z then goal x, y, z
+    reset_low = (-0.05, 0.6, OBJ_Z, -0.05, 0.85, OBJ_Z)
+    reset_high = (0.05, 0.65, OBJ_Z, 0.05, 0.9, OBJ_Z)
+
+    def bind(self, model) -> None:
+        super().bind(model)
+        self.midpoint = self.const(MIDPOINT)
+
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return push_wall_reward(action, s.obj_pos, s.gripper_open, s.tcp, s.left_pad, s.right_pad, s.goal,
+                                s.obj_init_pos, s.init_tcp, self.midpoint.expand_as(s.obj_pos))
+
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return push_wall_success(s.obj_pos, s.goal)
