@@ -25,6 +25,13 @@ def policy(obs: torch.Tensor) -> torch.Tensor:
     o = parse(obs)
     hand, prev, ball, hoop = o["tcp"], o["prev_tcp"], o["obj_pos"], o["goal"]
     target, close, held = grasp_phase(hand, ball, o["gripper_open"], **BALL_GRASP)
+    # from the start pose (TCP 20 cm up) come down to the approach height while staying RISE_BEFORE_HOOP in front
+    # of the hoop: on the way over to a ball near the hoop, the palm (10 cm ahead of the TCP) would otherwise sweep
+    # through the ring (25 cm up)
+    approach_z = ball[:, 2] + BALL_GRASP["above"]
+    descend_first = (hand[:, 2] > approach_z + 0.02) & ((hand[:, :2] - ball[:, :2]).norm(dim=-1) > 0.02)
+    descend = torch.stack([ball[:, 0], torch.minimum(ball[:, 1], hoop[:, 1] - RISE_BEFORE_HOOP), approach_z], dim=-1)
+    target = torch.where(descend_first[:, None], descend, target)
     drop_point = shifted(hoop, dz=DROP_ABOVE)
     to_drop = ball - drop_point
     aligned = (to_drop[:, :2].norm(dim=-1) < OVER_HOOP) & (to_drop[:, 2].abs() < 0.01)
