@@ -21,7 +21,7 @@ def assembly_in_place(ring: torch.Tensor, goal: torch.Tensor) -> tuple[torch.Ten
     err = goal - ring
     radius = err[:, :2].norm(dim=-1)
     success = (radius < ALIGNED_RADIUS) & (err[:, 2] > 0.0)
-    threshold = torch.where(success, 0.02, 0.01)
+    threshold = 0.01 + 0.01 * success.to(ring.dtype)  # 0.02 once aligned and hooked
     outside = radius > threshold
     # a funnel of target heights centred on the peg: 0 within the threshold, 0.02·ln(r − threshold) + 0.2 outside
     funnel = torch.where(outside, 0.02 * torch.log(torch.where(outside, radius - threshold, 1.0)) + 0.2, 0.0)

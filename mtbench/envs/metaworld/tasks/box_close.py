@@ -52,7 +52,11 @@ class BoxClose(FreeObjectTask):
     the 10 cm handle bar, a capsule of radius 8 mm 8.2 cm above ``top_link``, runs along x); the box ``boxbody``
     is fixed to the world and moved per world with ``set_body_pos``. ``edit_spec`` adds the site ``lid_point`` at
     ``top_link`` + (0, 0, 0.08): MTBench's "lid" point (its ``top_link2`` at 0.09 minus 0.01), on the handle bar.
-    MTBench's "lid base" is ``top_link``, the lid plate's bottom. Closed, ``top_link`` rests at z = 0.06.
+    MTBench's "lid base" is ``top_link``, the lid plate's bottom. ``edit_spec`` also stops the lid's two visual
+    meshes (plate and handle, in the default geom class) from colliding, as MTBench removed them ("appearing as a
+    solid rectangle"): their convex hulls are solid slabs, which made the closed lid rest 1.6 cm high on the box
+    walls by its skirt's hull and filled the handle between its posts. The lid collides through Meta-World's
+    primitive collision geoms only; closed, ``top_link`` rests on the walls at z = 0.06.
 
     Reset (MTBench ranges mapped to this frame, ``x = -y_mtb, y = x_mtb + 0.6, z = z_mtb - 1.027``): lid
     ``top_link`` at U([-0.05, 0.45], [0.05, 0.5]) lying on the table (z = 0.016; MTBench puts ``top_link`` at the
@@ -92,8 +96,12 @@ class BoxClose(FreeObjectTask):
 
     @classmethod
     def edit_spec(cls, spec: mujoco.MjSpec) -> None:
-        """MTBench's lid point as a site on ``top_link``."""
-        spec.body("top_link").add_site(name="lid_point", pos=[0.0, 0.0, LID_POINT], size=[0.005] * 3, group=4)
+        """MTBench's lid point as a site on ``top_link``; the lid's visual meshes do not collide."""
+        top = spec.body("top_link")
+        top.add_site(name="lid_point", pos=[0.0, 0.0, LID_POINT], size=[0.005] * 3, group=4)
+        for geom in top.geoms:
+            if geom.type == mujoco.mjtGeom.mjGEOM_MESH:
+                geom.contype, geom.conaffinity = 0, 0
 
     def bind(self, model) -> None:
         self.obj_body = self.body_id(self.OBJ_BODY)
