@@ -8,7 +8,7 @@ import torch
 from ..reward_utils import gripper_caging_reward, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, TaskState, offset
-from ._nut import HANDLE_OFFSET, XML, NutSceneMixin, quat_error, wrench_threshed
+from ._nut import HANDLE_OFFSET, XML, NutSceneMixin, wrench_threshed
 
 SUCCESS_TOL = 0.05  # MTBench: |ring_z − target_z| < 0.05
 LIFT_Z = 0.02  # "lifted": ring centre above the table + 2 cm
@@ -30,11 +30,6 @@ def disassemble_reward(action: torch.Tensor, handle: torch.Tensor, ring: torch.T
     lifted = (ring[:, 2] > LIFT_Z).to(ring.dtype)
     in_place = 0.1 * lifted + 0.9 * tolerance(pos_error, bounds=(0.0, 0.02), margin=0.2, sigmoid="long_tail")
     return 2.0 * grab + 6.0 * in_place
-
-
-def disassemble_quat_reward(nut_quat: torch.Tensor, nut_quat0: torch.Tensor) -> torch.Tensor:
-    """MTBench's ``_reward_quat_disassemble``, ``max(0, 1 − ‖q − q0‖)`` (computed but unused by its reward)."""
-    return (1.0 - quat_error(nut_quat, nut_quat0)).clamp_min(0.0)
 
 
 def disassemble_success(ring: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -62,8 +57,8 @@ class Disassemble(NutSceneMixin, MetaWorldTask):
                                                         long_tail)
         r = 2·grab + 6·in_place
 
-    MTBench computes a quaternion term (``disassemble_quat_reward``) but does not use it (Meta-World multiplies
-    its reward by one). Success (MTBench): ``|ring_z − goal_z| < 0.05``, i.e. the ring centre between 12.5 and
+    MTBench computes a quaternion term, ``max(0, 1 − ‖q − q0‖)``, but does not use it (Meta-World multiplies its
+    reward by ``max(0, 1 − ‖q − q0‖/0.4)``). Success (MTBench): ``|ring_z − goal_z| < 0.05``, i.e. the ring centre between 12.5 and
     22.5 cm above the table: off the peg (its top is at 10 cm; the ring's underside is then 10.6 cm high).
     Meta-World: handle z above the goal z.
     """
