@@ -1,0 +1,104 @@
+"""Assembly: pick up a round nut by its handle and put it over a peg (Meta-World ``assembly-v3``; paper-era MTBench
+``task_fns/assembly.py``)."""
+
+from __future__ import annotations
+
+import torch
+
+from ..reward_utils import gripper_caging_reward, tolerance
+from ..scene import SceneSpec
+from ..task import MetaWorldTask, TaskState, offset
+from ._nut import HANDLE_OFFSET, PEG_HALF_HEIGHT, XML, NutSceneMixin, quat_error, wrench_threshed
+
+ALIGNED_RADIUS = 0.02  # MTBench/Meta-World: ring centre within 2 cm of the peg axis
+TARGET_ABOVE_PEG_TOP = 0.05  # MTBench's target = goal + (0, 0, 0.05), 5 cm above its peg's top
+LIFT_Z = 0.02
+QUAT_SCALE = 4.0  # MTBench: max(1 − ‖q − q0‖/4, 0) (Meta-World: /0.4)
+
+
+def assembly_in_place(ring: torch.Tensor, goal: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """MTBench's ``_reward_pos_assemble``: ``(in_place, success)`` of the ring centre against the target."""
+    err = goal - ring
+    radius = err[:, :2].norm(dim=-1)
+    success = (radius < ALIGNED_RADIUS) & (err[:, 2] > 0.0)
+    threshold = 0.01 + 0.01 * success.to(ring.dtype)  # 0.02 once aligned and hooked
+    outside = radius > threshold
+    # a funnel of target heights centred on the peg: 0 within the threshold, 0.02·ln(r − threshold) + 0.2 outside
+    funnel = torch.where(outside, 0.02 * torch.log(torch.where(outside, radius - threshold, 1.0)) + 0.2, 0.0)
+    pos_error = torch.stack([err[:, 0], err[:, 1], 3.0 * (funnel - ring[:, 2])], dim=-1).norm(dim=-1)
+    lifted = ((ring[:, 2] > LIFT_Z) | (radius < threshold)).to(ring.dtype)
+    in_place = 0.1 * lifted + 0.9 * tolerance(pos_error, bounds=(0.0, 0.02), margin=0.4, sigmoid="long_tail")
+    return in_place, success
+
+
+def assembly_reward(action: torch.Tensor, handle: torch.Tensor, ring: torch.Tensor, nut_quat: torch.Tensor,
+                    nut_quat0: torch.Tensor, tcp: torch.Tensor, left_pad: torch.Tensor, right_pad: torch.Tensor,
+                    goal: torch.Tensor, obj_init_pos: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
+    """Dense reward ``[n]`` (see :class:`Assembly`): ``handle`` the handle centre, ``ring`` the ring centre,
+    ``nut_quat`` the nut's quaternion and ``nut_quat0`` its laid-down orientation (wxyz)."""
+    grab = gripper_caging_reward(
+        action, wrench_threshed(handle, tcp), obj_radius=0.02, pad_success_thresh=0.05, object_reach_radius=0.0,
+        xz_thresh=0.005, left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos,
+        init_tcp=init_tcp, medium_density=True,
+    )
+    in_place, _ = assembly_in_place(ring, goal)
+    quat = (1.0 - quat_error(nut_quat, nut_quat0) / QUAT_SCALE).clamp_min(0.0)
+    return (2.0 * grab + 8.0 * in_place) * quat
+
+
+def assembly_success(ring: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
+    """Ring centre within 2 cm of the target's axis and below the target (5 cm above the peg's top)."""
+    return assembly_in_place(ring, goal)[1]
+
+
+class Assembly(NutSceneMixin, MetaWorldTask):
+    """Pick up the nut (see :mod:`._nut`) by its handle and fit its ring over the 10 cm peg.
+
+    Reset (MTBench ranges mapped to this frame, ``x = -y_mtb, y = x_mtb + 0.6, z = z_mtb - 1.027``; equal to
+    Meta-World's): the nut lies flat with its ring centre at (0, 0.6, 0.02) (fixed; it settles 1 mm lower), peg
+    position ~ U([-0.1, 0.75, 0.1], [0.1, 0.85, 0.1]) with the peg standing on the table below it (peg centre =
+    position − (0, 0, 0.05): its top is at 0.1). Goal = MTBench's target, position + (0, 0, 0.05), i.e. 5 cm
+    above the peg's top (Meta-World's target is the peg top). MTBench's ``obj_init_pos`` is its nut position +
+    (0, 0.13, 0)_mtb = ring − (0.13, 0, 0) here: the point opposite the handle (Meta-World: the ring centre). It
+    enters only the caging margins, which are symmetric in x about the initial TCP (x = 0), so it gives the same
+    values as the handle's start. No rejection (MTBench has none; Meta-World's can never trigger here).
+    Object observation: handle centre and nut quaternion (wxyz), as Meta-World; no second object.
+
+    Reward: MTBench's dense term (before its ``* .01``)::
+
+        grab = gripper_caging(handle with x snapped to the TCP's within 1 cm, obj_radius=0.02,
+                              pad_success_thresh=0.05, object_reach_radius=0, xz_thresh=0.005, medium_density)
+        r_xy = ‖(goal − ring)_xy‖;  aligned = r_xy < 0.02 and ring_z < goal_z;  th = 0.02 if aligned else 0.01
+        funnel = 0.02·ln(r_xy − th) + 0.2 if r_xy > th else 0
+        in_place = 0.1·[ring_z > 0.02 or r_xy < th]
+                   + 0.9·tolerance(‖(goal_x − ring_x, goal_y − ring_y, 3·(funnel − ring_z))‖, (0, 0.02),
+                                   margin=0.4, long_tail)
+        quat = max(1 − ‖q − q0‖/4, 0)
+        r = (2·grab + 8·in_place)·quat
+
+    (Meta-World: ``(2·grab + 6·in_place)·max(1 − ‖q − q0‖/0.4, 0)``, its own caging parameters.)
+    Success (MTBench and Meta-World, with MTBench's higher target): ``aligned`` above, the ring centre within
+    2 cm of the peg's axis and less than 5 cm above the peg's top.
+    """
+
+    name = "assembly"
+    mtbench_id = 0
+    description = "Pick up a round nut by its handle and fit it down over a vertical peg."
+    scene = SceneSpec(XML, hand_init_pos=(0.0, 0.6, 0.2))
+    # ring centre x, y, z then peg position x, y, z (the peg's top centre)
+    reset_low = (0.0, 0.6, 0.02, -0.1, 0.75, 0.1)
+    reset_high = (0.0, 0.6, 0.02, 0.1, 0.85, 0.1)
+
+    def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
+        ring, peg_top = vec[:, :3], vec[:, 3:6]
+        self.place_nut(s, ring, mask)
+        self.set_body_pos(s.sim, self.peg_body, offset(peg_top, 0.0, 0.0, -PEG_HALF_HEIGHT), mask)
+        self.masked_set(s.obj_init_pos, offset(ring, -HANDLE_OFFSET, 0.0, 0.0), mask)
+        self.masked_set(s.goal, offset(peg_top, 0.0, 0.0, TARGET_ABOVE_PEG_TOP), mask)
+
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return assembly_reward(action, s.obj_pos, self.ring_center(s), s.obj_quat, self.nut_quat, s.tcp, s.left_pad,
+                               s.right_pad, s.goal, s.obj_init_pos, s.init_tcp)
+
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return assembly_success(self.ring_center(s), s.goal)

@@ -1,0 +1,89 @@
+"""Basketball: grasp a ball and bring it into the hoop (Meta-World ``basketball-v3``; paper-era MTBench
+``task_fns/basketball.py``)."""
+
+from __future__ import annotations
+
+import torch
+
+from ..reward_utils import gripper_caging_reward, hamacher_product, tolerance
+from ..scene import SceneSpec
+from ..task import FreeObjectTask, TaskState, offset
+
+TARGET_RADIUS = 0.08
+HOLD_RADIUS = 0.02  # MTBench: TCP within 2 cm of the ball (Meta-World: 3.5 cm)
+BALL_RADIUS = 0.03
+HOOP_FROM_BASE = (0.0, -0.083, 0.25)  # the hoop centre (site ``goal``) relative to the stand's base
+
+
+def basketball_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: torch.Tensor, tcp: torch.Tensor,
+                      left_pad: torch.Tensor, right_pad: torch.Tensor, goal: torch.Tensor,
+                      obj_init_pos: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
+    """Dense reward ``[n]`` (see :class:`Basketball`); points ``[n, 3]``, ``gripper_open`` ``[n]``, actions ``[n, 4]``."""
+    in_place = tolerance((obj - goal).norm(dim=-1), bounds=(0.0, TARGET_RADIUS),
+                         margin=(obj_init_pos - goal).norm(dim=-1), sigmoid="long_tail")
+    grasp = gripper_caging_reward(
+        action, obj, obj_radius=0.025, pad_success_thresh=0.06, object_reach_radius=0.01, xz_thresh=0.005,
+        left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=obj_init_pos, init_tcp=init_tcp,
+        medium_density=True,
+    )
+    reward = hamacher_product(grasp, in_place)
+    lifted = ((obj - tcp).norm(dim=-1) < HOLD_RADIUS) & (gripper_open > 0) & (obj[:, 2] - 0.01 > obj_init_pos[:, 2])
+    return torch.where(lifted, reward + 1.0 + 5.0 * in_place, reward)
+
+
+def basketball_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
+    """``‖ball − hoop centre‖ < 0.08``."""
+    return (obj - goal).norm(dim=-1) < TARGET_RADIUS
+
+
+class Basketball(FreeObjectTask):
+    """Bring the ball (sphere, radius 3 cm, 0.1 kg) into the hoop (a ring of capsules, 3.4 cm inner radius, 25 cm
+    above the table, 8.3 cm in front of the backboard).
+
+    Scene: Meta-World ``sawyer_basketball.xml`` with its real ball (a sphere). The original MTBench used a 4 cm
+    box instead ("IsaacGym sphere issue"); MuJoCo has no such issue, so the ball is Meta-World's. The hoop's stand
+    (``basket_goal``, fixed to the world) is moved per world with ``set_body_pos``.
+
+    Reset (MTBench ranges mapped to this frame, ``x = -y_mtb, y = x_mtb + 0.6``; equal to Meta-World's): ball
+    ~ U([-0.1, 0.6], [0.1, 0.7]) resting at z = 0.03 (its radius; MTBench's box: 0.02), stand base ~ U([-0.1,
+    0.85, 0], [0.1, 0.9, 0]). Goal = stand + (0, -0.083, 0.25), the hoop centre (MTBench: stand + (-0.083, 0,
+    0.25) in its frame; Meta-World's ``goal`` site). No goal rejection (MTBench has none; the ranges are 15 cm
+    apart). Object observation: ball position and quaternion (wxyz); no second object (as Meta-World).
+
+    Reward: MTBench's dense term (before its ``* .01``)::
+
+        in_place = tolerance(‖ball − goal‖, (0, 0.08), margin=‖ball_init − goal‖, long_tail)
+        grasp = gripper_caging(obj_radius=0.025, pad_success_thresh=0.06, object_reach_radius=0.01,
+                               xz_thresh=0.005, medium_density=True)
+        r = hamacher(grasp, in_place)
+        if ‖tcp − ball‖ < 0.02 and gripper_open > 0 and ball_z − 0.01 > ball_init_z:  r += 1 + 5·in_place
+
+    (Meta-World v2: z error weighted 2 with the target at z = 0.3, high-density caging, grasp forced to 1 when
+    lifted, 3.5 cm hold radius.) Success (MTBench and Meta-World): ``‖ball − hoop centre‖ < 0.08``.
+    """
+
+    name = "basketball"
+    mtbench_id = 1
+    description = "Grasp a basketball and drop it through the hoop."
+    scene = SceneSpec("sawyer_basketball.xml", hand_init_pos=(0.0, 0.6, 0.2))
+    # ball x, y, z then stand base x, y, z
+    reset_low = (-0.1, 0.6, BALL_RADIUS, -0.1, 0.85, 0.0)
+    reset_high = (0.1, 0.7, BALL_RADIUS, 0.1, 0.9, 0.0)
+    MIN_GOAL_DIST = 0.0  # MTBench: no goal rejection
+    OBJ_BODY = "bsktball"
+
+    def bind(self, model) -> None:
+        self.obj_body = self.body_id(self.OBJ_BODY)
+        self.obj_qpos = int(model.jnt_qposadr[model.body_jntadr[self.obj_body]])
+        self.stand_body = self.body_id("basket_goal")
+
+    def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
+        self.set_body_pos(s.sim, self.stand_body, vec[:, 3:6], mask)
+        self.place(s, vec[:, :3], offset(vec[:, 3:6], *HOOP_FROM_BASE), mask)
+
+    def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return basketball_reward(action, s.obj_pos, s.gripper_open, s.tcp, s.left_pad, s.right_pad, s.goal,
+                                 s.obj_init_pos, s.init_tcp)
+
+    def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return basketball_success(s.obj_pos, s.goal)
