@@ -268,3 +268,42 @@ def test_task_registry_is_derived_from_the_task_files() -> None:
     assert set(benchmark_tasks("mt10")) == set(MT10)
     env = make_env(["reach", "push"], num_envs=[1, 1], device="cpu")
     assert env.task_descriptions == [TASKS["reach"].description, TASKS["push"].description]
+
+
+def test_paper_rewards_use_the_original_tolerance_and_v2_the_correct_one() -> None:
+    """Same physics in both reward versions; the paper version's dense rewards are the task's formula evaluated with
+    the original MTBench ``tolerance`` (0 inside its bounds), so they differ once the puck is caged."""
+    from mtbench.envs.metaworld.policies import scripted_policy
+    from mtbench.envs.metaworld.reward_utils import mtbench_tolerance
+
+    envs = {v: make_env("push", num_envs=4, device="cpu", seed=5, random_start_progress=False, reward_version=v)
+            for v in ("paper", "v2")}
+    tds = {v: e.reset() for v, e in envs.items()}
+    policy = scripted_policy("push")
+    differ = 0
+    for _ in range(60):
+        action = policy(tds["paper"]["observation"])
+        outs = {}
+        for v, e in envs.items():
+            tds[v]["action"] = action
+            outs[v], tds[v] = e.step_and_maybe_reset(tds[v])
+        assert torch.equal(outs["paper"]["next", "observation"], outs["v2"]["next", "observation"])
+        task, s = envs["paper"].blocks[0]
+        with mtbench_tolerance():
+            expected = task.reward(s, action) * task.dense_scale * 100.0
+        success = task.success(s, action)
+        expected = torch.where(success, torch.full_like(expected, 10.0), expected)
+        torch.testing.assert_close(outs["paper"]["next", "reward"].squeeze(-1), expected)
+        differ += int((outs["paper"]["next", "reward"] != outs["v2"]["next", "reward"]).sum())
+    assert differ > 0
+
+
+def test_mt50_settings_pass_torchrl_spec_checks() -> None:
+    env = make_env("mt50_rand", num_envs=50, device="cpu", seed=0)
+    assert env.num_tasks == 50 and env.rand and env.task_counts == [1] * 50
+    assert env.observation_spec["observation"].shape == (50, 39 + 50)
+    check_env_specs(env)
+    fixed = make_env("mt50", num_envs=100, device="cpu", seed=0)
+    assert not fixed.rand and fixed.task_counts == [2] * 50
+    # the paper's split of 24,576 worlds over MT50
+    assert split_envs(24576, 50) == [492] * 26 + [491] * 24

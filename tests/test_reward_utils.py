@@ -486,3 +486,28 @@ def test_above_floor_funnel_matches_metaworld_door(ref: _Reference, dtype: torch
     assert err <= ATOL, err
     assert ((above > 0) & (above < 1)).double().mean() > 0.2  # below-the-floor branch exercised
     assert (above == 1).double().mean() > 0.2
+
+
+def test_mtbench_tolerance_reproduces_the_originals_semantics() -> None:
+    """The original MTBench ``tolerance`` (used by the paper's rewards) returns 0 inside the bounds when the margin
+    is positive and 0 everywhere for a zero margin; outside the bounds with a positive margin it is Meta-World's."""
+    from mtbench.envs.metaworld.reward_utils import mtbench_tolerance
+
+    x = torch.tensor([0.0, 0.03, 0.05, 0.06, 0.1, 0.3], dtype=torch.float64)
+    correct = tolerance(x, bounds=(0.0, 0.05), margin=0.1, sigmoid="long_tail")
+    assert correct[:3].eq(1.0).all()
+    with mtbench_tolerance():
+        paper = tolerance(x, bounds=(0.0, 0.05), margin=0.1, sigmoid="long_tail")
+        zero_margin = tolerance(x, bounds=(0.0, 0.05), margin=0.0, sigmoid="long_tail")
+        mixed = tolerance(x, bounds=(0.0, 0.05), margin=torch.tensor([0.1, 0.0, 0.1, 0.0, 0.1, 0.1],
+                                                                       dtype=torch.float64), sigmoid="gaussian")
+        with mtbench_tolerance(False):  # nested: the correct semantics again
+            torch.testing.assert_close(tolerance(x, bounds=(0.0, 0.05), margin=0.1, sigmoid="long_tail"), correct)
+    # known answers: long_tail(d) = 1 / (1 + (3 d)^2), d = (x - 0.05) / 0.1 outside
+    expected = torch.tensor([0.0, 0.0, 0.0, 1 / (1 + 0.3**2), 1 / (1 + 1.5**2), 1 / (1 + 7.5**2)], dtype=torch.float64)
+    torch.testing.assert_close(paper, expected)
+    assert zero_margin.eq(0.0).all()
+    gauss = lambda d: 10.0 ** (-(d**2))  # noqa: E731  (gaussian with value 0.1 at the margin)
+    torch.testing.assert_close(mixed, torch.tensor([0.0, 0.0, 0.0, 0.0, gauss(0.5), gauss(2.5)], dtype=torch.float64))
+    # the context is left: back to Meta-World's behaviour
+    torch.testing.assert_close(tolerance(x, bounds=(0.0, 0.05), margin=0.1, sigmoid="long_tail"), correct)

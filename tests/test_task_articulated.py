@@ -8,13 +8,10 @@ tasks use are checked against the Meta-World XMLs (plain MuJoCo on the CPU) and 
 
 from __future__ import annotations
 
-import __future__
-import ast
 import importlib.util
 import types
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, Callable
 
 import mujoco
 import numpy as np

@@ -1,21 +1,16 @@
-"""Known-answer tests of the door_open and button_press_topdown task definitions (no physics, no env).
-
-The dense rewards are compared with Meta-World's own ``compute_reward`` (metaworld 3.0.0, reward version "v2"),
-compiled from the installed source files and called with numpy on a minimal stand-in ``self``; the success rules
-and the helpers (handle pose, moved fixture geoms, the door-angle estimate of the scripted policy) against
-hand-computed values.
+"""Known-answer tests of the door_open and button_press_topdown task definitions (no physics, no env), against the
+paper-era MTBench formulas (``task_fns/door_open.py``, ``task_fns/button_press_topdown.py`` of Viraj-Joshi/MTBench
+ed2e2b5) recomputed per state in float64 NumPy with Meta-World's own ``tolerance`` and ``hamacher_product``
+(compiled from the installed metaworld source), and the fixture guidance in MuJoCo C.
 """
 
 from __future__ import annotations
 
-import __future__
-import ast
 import importlib.util
 import math
 import types
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -23,60 +18,31 @@ import pytest
 import torch
 
 from mtbench.envs.metaworld.policies.door_open import HANDLE_AT_ZERO, door_angle
+from mtbench.envs.metaworld.tasks import door_open as door_task
+from mtbench.envs.metaworld.tasks._button import TRAVEL
+from mtbench.envs.metaworld.tasks._door import HANDLE_ON_DOOR
 from mtbench.envs.metaworld.tasks.button_press_topdown import (
-    ButtonPressTopdown,
     button_press_topdown_reward,
     button_press_topdown_success,
 )
-from mtbench.envs.metaworld.tasks.door_open import (
-    DoorOpen,
-    door_open_reward,
-    door_open_success,
-    quat_mul,
-    quat_rotate,
-)
+from mtbench.envs.metaworld.tasks.door_open import door_open_reward, door_open_success
 
-# door placed at Meta-World's default (0, 0.9, 0.15): hinge, goal
-DOOR = np.array([0.0, 0.9, 0.15])
+# door placed at MTBench's range centre (0.05, 1.0, 0.15): hinge, goal
+DOOR = np.array([0.05, 1.0, 0.15])
 HINGE = DOOR[:2] + np.array([-0.185, -0.1])
-GOAL = DOOR + np.array(DoorOpen.GOAL_OFFSET)
+GOAL = DOOR + np.array(door_task.GOAL_OFFSET)
 
 
-# ------------------------------------------------------------------------------------------------ reference
 @lru_cache(maxsize=1)
 def _reference() -> types.SimpleNamespace | str:
-    """Meta-World's compute_reward functions compiled from the installed files (importing metaworld itself pulls
-    in gymnasium's MuJoCo renderer, which needs optional packages)."""
     spec = importlib.util.find_spec("metaworld")
     if spec is None or not spec.submodule_search_locations:
         return "metaworld is not installed"
     root = Path(next(iter(spec.submodule_search_locations)))
-    ru_path = root / "utils" / "reward_utils.py"
-    ru_spec = importlib.util.spec_from_file_location("_door_button_ref_reward_utils", ru_path)
+    ru_spec = importlib.util.spec_from_file_location("_door_button_ref_reward_utils", root / "utils" / "reward_utils.py")
     ru = importlib.util.module_from_spec(ru_spec)
     ru_spec.loader.exec_module(ru)
-    ns: dict[str, Any] = {"np": np, "reward_utils": ru, "Any": Any, "npt": np.typing}
-
-    def method(path: Path, cls_name: str, name: str) -> Any:
-        tree = ast.parse(path.read_text())
-        cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == cls_name)
-        fn = next(n for n in cls.body if isinstance(n, ast.FunctionDef) and n.name == name)
-        fn.decorator_list = []
-        code = compile(ast.Module(body=[fn], type_ignores=[]), str(path), "exec",
-                       flags=__future__.annotations.compiler_flag, dont_inherit=True)
-        exec(code, ns)
-        return ns[name]
-
-    door_file = root / "envs" / "sawyer_door_v3.py"
-    door_cls = types.SimpleNamespace(
-        _reward_grab_effort=method(door_file, "SawyerDoorEnvV3", "_reward_grab_effort"),
-        _reward_pos=method(door_file, "SawyerDoorEnvV3", "_reward_pos"),
-    )
-    door_compute = method(door_file, "SawyerDoorEnvV3", "compute_reward")
-    ns["SawyerDoorEnvV3"] = door_cls
-    button_compute = method(root / "envs" / "sawyer_button_press_topdown_v3.py", "SawyerButtonPressTopdownEnvV3",
-                            "compute_reward")
-    return types.SimpleNamespace(door=door_compute, button=button_compute)
+    return types.SimpleNamespace(tolerance=ru.tolerance, hamacher=ru.hamacher_product)
 
 
 @pytest.fixture(scope="module")
@@ -87,22 +53,21 @@ def ref() -> types.SimpleNamespace:
     return r
 
 
-def _door_ref(ref, hand, handle, theta, grab, goal=GOAL) -> float:
-    obs = np.zeros(39)
-    obs[:3], obs[4:7] = hand, handle
-    joint = types.SimpleNamespace(qpos=np.array([theta]))
-    self = types.SimpleNamespace(_target_pos=np.asarray(goal), reward_function_version="v2",
-                                 data=types.SimpleNamespace(joint=lambda name: joint))
-    return float(ref.door(self, np.array([0.0, 0.0, 0.0, grab]), obs)[0])
-
-
-def _button_ref(ref, tcp, init_tcp, obj, gripper_open, target, o2t_init) -> float:
-    obs = np.zeros(39)
-    obs[3], obs[4:7] = gripper_open, obj
-    self = types.SimpleNamespace(tcp_center=np.asarray(tcp), init_tcp=np.asarray(init_tcp),
-                                 _target_pos=np.asarray(target), _obj_to_target_init=o2t_init,
-                                 reward_function_version="v2")
-    return float(ref.button(self, np.zeros(4), obs)[0])
+def _door_ref(ref, tcp, handle, theta, opened_gripper) -> float:
+    """MTBench door_open compute_reward (before ``* .01``) in our frame (table top at z = 0)."""
+    door = handle + np.array([0.075, -0.15, 0.0])
+    radius = np.linalg.norm(tcp[:2] - door[:2])
+    floor = 0.0 if radius <= 0.12 else 0.04 * np.log(radius - 0.12) + 0.25
+    above = 1.0 if tcp[2] >= floor else ref.tolerance(floor - tcp[2], bounds=(0.0, 0.01), margin=0.1,
+                                                      sigmoid="long_tail")
+    in_place = ref.tolerance(np.linalg.norm(tcp - door + [0.0, 0.0, 0.01]), bounds=(0.0, 0.06), margin=0.5,
+                             sigmoid="long_tail")
+    ready = ref.hamacher(above, in_place)
+    angle = -theta
+    opened = 0.2 * float(theta < -math.pi / 90) + 0.8 * ref.tolerance(
+        math.pi / 2 + math.pi / 6 - angle, bounds=(0.0, 0.5), margin=math.pi / 3, sigmoid="long_tail")
+    opened = 1.0 if angle > 1.5 else opened
+    return float(2 * ref.hamacher(ready, opened_gripper) + 8 * opened)
 
 
 def _t(x) -> torch.Tensor:
@@ -116,57 +81,40 @@ def _handle_at(theta: float) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------------ door
+def test_policy_handle_point_is_the_task_s() -> None:
+    assert tuple(HANDLE_AT_ZERO) == HANDLE_ON_DOOR[:2]
+
+
 def test_door_open_state_gives_success_and_maximal_reward() -> None:
-    theta = -1.65  # opened 95 degrees: inside the "fully open" band of the reward and the success band
+    theta = -1.65  # opened 95 degrees: "fully open" for the reward and inside the success band
     handle = _handle_at(theta)
-    hand = handle + np.array([0.0, 0.03, -0.01])  # Meta-World's in-place point: door + (0.05, 0.03, -0.01)
-    dense = door_open_reward(_t([hand]), _t([handle]), _t([theta]), _t([1.0]))
+    tcp = handle + np.array([0.075, -0.15, -0.01])  # at MTBench's in-place point, above the funnel floor
+    dense = door_open_reward(_t([tcp]), _t([handle]), _t([theta]), _t([1.0]))
     torch.testing.assert_close(dense, _t([10.0]))
     assert door_open_success(_t([handle]), _t([GOAL])).tolist() == [True]
 
 
 def test_door_success_band() -> None:
-    # |handle_x - goal_x| <= 0.08 holds for hinge angles of about -1.38 .. -1.82 rad (handle geometry)
-    thetas = [0.0, -0.7, -1.35, -1.40, -1.6, -1.80, -1.85]
+    # |handle_x - goal_x| <= 0.08 with MTBench's handle point holds for hinge angles in [-2, -1.49]
+    thetas = [0.0, -0.7, -1.45, -1.52, -1.7, -1.95, -2.0]
     handles = _t(np.stack([_handle_at(t) for t in thetas]))
     got = door_open_success(handles, _t(np.tile(GOAL, (len(thetas), 1)))).tolist()
-    assert got == [False, False, False, True, True, True, False]
+    assert got == [False, False, False, True, True, True, True]
 
 
-def test_door_closed_far_hand_small_reward(ref) -> None:
-    handle = _handle_at(0.0)
-    hand = np.array([-0.4, 0.4, 0.5])
-    dense = door_open_reward(_t([hand]), _t([handle]), _t([0.0]), _t([-1.0]))
-    assert float(dense) < 0.5
-    assert float(dense) == pytest.approx(_door_ref(ref, hand, handle, 0.0, -1.0), abs=1e-9)
-
-
-@pytest.mark.parametrize("theta", [0.0, -0.02, -0.3, -0.9, -1.2])
-@pytest.mark.parametrize("grab", [-1.0, 0.3, 1.0])
-def test_door_reward_matches_metaworld(ref, theta: float, grab: float) -> None:
-    rng = np.random.default_rng(int(1000 * -theta) + int(10 * (grab + 1.0)))
+@pytest.mark.parametrize("theta", [0.0, -0.02, -0.3, -0.9, -1.2, -1.6])
+@pytest.mark.parametrize("opened_gripper", [0.0, 0.3, 1.0])
+def test_door_reward_matches_mtbench(ref, theta: float, opened_gripper: float) -> None:
+    rng = np.random.default_rng(int(1000 * -theta) + int(10 * opened_gripper))
     handle = _handle_at(theta)
-    hands = handle + rng.uniform([-0.25, -0.25, -0.1], [0.25, 0.25, 0.3], size=(16, 3))
-    hands[0] = handle + np.array([0.0, 0.03, -0.01])  # inside the in-place ball
-    hands[1] = handle + np.array([0.2, -0.2, 0.02])  # outside the funnel, below its floor
-    n = len(hands)
-    ours = door_open_reward(_t(hands), _t(np.tile(handle, (n, 1))), _t([theta] * n), _t([grab] * n))
-    expected = [_door_ref(ref, h, handle, theta, grab) for h in hands]  # not in success: no override
+    door = handle + np.array([0.075, -0.15, 0.0])
+    tcps = door + rng.uniform([-0.3, -0.3, -0.05], [0.3, 0.3, 0.3], size=(16, 3))
+    tcps[0] = door + np.array([0.0, 0.0, -0.01])  # inside the in-place ball and the funnel
+    tcps[1] = door + np.array([0.2, -0.2, 0.02])  # outside the funnel, below its floor
+    n = len(tcps)
+    ours = door_open_reward(_t(tcps), _t(np.tile(handle, (n, 1))), _t([theta] * n), _t([opened_gripper] * n))
+    expected = [_door_ref(ref, t, handle, theta, opened_gripper) for t in tcps]
     np.testing.assert_allclose(ours.numpy(), expected, rtol=0, atol=1e-9)
-
-
-def test_handle_pose_helpers_match_mujoco() -> None:
-    rng = np.random.default_rng(0)
-    q1, q2 = rng.normal(size=(2, 5, 4))
-    q1 /= np.linalg.norm(q1, axis=-1, keepdims=True)
-    q2 /= np.linalg.norm(q2, axis=-1, keepdims=True)
-    v = rng.normal(size=(5, 3))
-    for i in range(5):
-        prod, rot = np.zeros(4), np.zeros(3)
-        mujoco.mju_mulQuat(prod, q1[i], q2[i])
-        mujoco.mju_rotVecQuat(rot, v[i], q1[i])
-        np.testing.assert_allclose(quat_mul(_t(q1[i]), _t(q2[i])).numpy(), prod, atol=1e-12)
-        np.testing.assert_allclose(quat_rotate(_t(q1[i]), _t(v[i])).numpy(), rot, atol=1e-12)
 
 
 def test_policy_door_angle_from_handle_and_goal() -> None:
@@ -178,53 +126,44 @@ def test_policy_door_angle_from_handle_and_goal() -> None:
 
 
 # ------------------------------------------------------------------------------------------------ button
-BOX = np.array([0.05, 0.85, 0.115])
-HOLE = BOX + np.array([0.0, 0.0, 0.1])  # the goal (Meta-World target)
-START_Z = BOX[2] + 0.1935  # buttonStart site
-OBJ0 = BOX + np.array([0.0, 0.0, 0.193])  # observed button position when unpressed
-O2T_INIT = abs(HOLE[2] - START_Z)
+BOX = np.array([0.05, 0.85, 0.12])
+OBJ0 = BOX + np.array([0.0, 0.0, 0.1935])  # MTBench's buttonStart point, unpressed
+GOAL_Z = OBJ0[2] - TRAVEL  # the end of the travel
 INIT_TCP = np.array([0.0, 0.4, 0.2])
 
 
+def _button_ref(ref, tcp, obj, openness) -> tuple[float, float]:
+    """MTBench button_press_topdown: (dense before * .01, button_pressed)."""
+    near = ref.tolerance(np.linalg.norm(obj - tcp), bounds=(0.0, 0.05), margin=np.linalg.norm(OBJ0 - INIT_TCP),
+                         sigmoid="long_tail")
+    pressed = ref.tolerance(abs(GOAL_Z - obj[2]), bounds=(0.0, 0.005), margin=TRAVEL, sigmoid="long_tail")
+    return float(2 * ref.hamacher(1.0 - openness, near)), float(pressed)
+
+
 def test_button_success_is_mtbench_rule() -> None:
-    press = np.array([0.0, 0.03, 0.049, 0.051, 0.06, 0.069, 0.071, 0.0935])
-    obj_z = OBJ0[2] - press
-    got = button_press_topdown_success(_t(obj_z), _t([OBJ0[2]] * len(press))).tolist()
-    assert got == [False, False, False, True, True, True, False, False]
-    # Meta-World's own rule (0.024 to the hole) needs a 6.95 cm press, past the 6 cm joint range
-    assert O2T_INIT - 0.024 > ButtonPressTopdown.TRAVEL
+    press = np.array([0.0, 0.03, 0.049, 0.051, 0.06, 0.069, 0.071])
+    obj = np.tile(OBJ0, (len(press), 1))
+    obj[:, 2] -= press
+    goal = np.tile(OBJ0 - [0.0, 0.0, TRAVEL], (len(press), 1))
+    got = button_press_topdown_success(_t(obj), _t(goal)).tolist()
+    assert got == [False, False, False, True, True, True, False]
 
 
-def test_button_pressed_to_goal_gives_maximal_reward(ref) -> None:
-    obj = HOLE.copy()  # button top at the goal, fingers closed on it
-    dense = button_press_topdown_reward(_t([obj]), _t([INIT_TCP]), _t([obj]), _t([HOLE[2]]), _t([O2T_INIT]),
-                                        _t([0.0]))
-    torch.testing.assert_close(dense, _t([10.0]))
-    assert float(dense) == pytest.approx(_button_ref(ref, obj, INIT_TCP, obj, 0.0, HOLE, O2T_INIT), abs=1e-12)
-
-
-def test_button_far_hand_small_reward(ref) -> None:
-    tcp = INIT_TCP
-    dense = button_press_topdown_reward(_t([tcp]), _t([INIT_TCP]), _t([OBJ0]), _t([HOLE[2]]), _t([O2T_INIT]),
-                                        _t([1.0]))
-    assert float(dense) == 0.0  # open gripper: the reach term is multiplied by 1 - gripper_open = 0
-    assert _button_ref(ref, tcp, INIT_TCP, OBJ0, 1.0, HOLE, O2T_INIT) == 0.0
-
-
-def test_button_reward_matches_metaworld(ref) -> None:
+def test_button_reward_matches_mtbench(ref) -> None:
     rng = np.random.default_rng(1)
     n = 24
-    press = rng.uniform(0.0, 0.075, size=n)
     obj = np.tile(OBJ0, (n, 1))
-    obj[:, 2] -= press
-    tcp = obj + rng.uniform([-0.04, -0.04, -0.01], [0.04, 0.04, 0.05], size=(n, 3))
-    tcp[::3] = obj[::3] + np.array([0.0, 0.0, 0.009])  # within 3 cm: the pressing term counts
+    obj[:, 2] -= rng.uniform(0.0, 0.07, size=n)
+    tcp = obj + rng.uniform([-0.06, -0.06, -0.01], [0.06, 0.06, 0.08], size=(n, 3))
     tcp[1] = INIT_TCP
-    gripper = rng.uniform(0.0, 1.0, size=n)
-    ours = button_press_topdown_reward(_t(tcp), _t(np.tile(INIT_TCP, (n, 1))), _t(obj), _t([HOLE[2]] * n),
-                                       _t([O2T_INIT] * n), _t(gripper))
-    expected = [_button_ref(ref, tcp[i], INIT_TCP, obj[i], gripper[i], HOLE, O2T_INIT) for i in range(n)]
-    np.testing.assert_allclose(ours.numpy(), expected, rtol=0, atol=1e-9)
+    openness = rng.uniform(0.0, 1.0, size=n)
+    goal = np.tile(OBJ0 - [0.0, 0.0, TRAVEL], (n, 1))
+    dense, pressed, tcp_to_obj = button_press_topdown_reward(_t(tcp), _t(obj), _t(np.tile(OBJ0, (n, 1))),
+                                                             _t(np.tile(INIT_TCP, (n, 1))), _t(goal), _t(1 - openness))
+    expected = np.array([_button_ref(ref, tcp[i], obj[i], openness[i]) for i in range(n)])
+    np.testing.assert_allclose(dense.numpy(), expected[:, 0], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(pressed.numpy(), expected[:, 1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(tcp_to_obj.numpy(), np.linalg.norm(obj - tcp, axis=-1), rtol=0, atol=1e-12)
 
 
 # ------------------------------------------------------------------------------------------------ fixtures

@@ -26,8 +26,6 @@ from mtbench.envs.metaworld.tasks import peg_insert_side as peg_task
 from mtbench.envs.metaworld.tasks import pick_place as pick_place_task
 from mtbench.envs.metaworld.tasks import push as push_task
 from mtbench.envs.metaworld.tasks.peg_insert_side import PegInsertSide
-from mtbench.envs.metaworld.tasks.pick_place import PickPlace
-from mtbench.envs.metaworld.tasks.push import Push
 
 
 def _push_rs(action, obj, opened, tcp, left, right, goal, obj_init_pos, init_tcp):

@@ -651,17 +651,3 @@ def test_hand_insert_scene_builds() -> None:
     tops = {round(float(m.geom_pos[g][2] + m.geom_size[g][2]), 4) for g in range(m.ngeom)
             if m.geom_bodyid[g] == table and m.geom_conaffinity[g]}
     assert 0.05 in tops and 0.0 in tops  # the top around the hole and the hole's floor still collide
-
-
-@pytest.mark.slow
-def test_group_b_scripted_policies_solve_their_tasks() -> None:
-    from mtbench.envs.metaworld.policies.evaluate import evaluate_scripted
-
-    tasks = [t for t in GROUP_B if t != "hand_insert" or _scene_builds(t)]
-    if "hand_insert" not in tasks:
-        print(f"hand_insert left out: {HAND_INSERT_NEEDS}")
-    rates = evaluate_scripted(tasks, worlds_per_task=10, seed=0, rand=True)
-    print({t: f"{r:.0%}" for t, r in rates.items()})
-    # peg_unplug_side: MTBench's layout leaves the plug lying along the fingers' opening axis; not graspable
-    failing = {t: r for t, r in rates.items() if r < 0.8 and t != "peg_unplug_side"}
-    assert not failing, f"scripted success below 80%: {failing}"

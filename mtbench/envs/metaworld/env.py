@@ -14,6 +14,7 @@ from ...utils import GraphedStage
 from . import observation as layout
 from . import robot
 from .models import compiled_task
+from .reward_utils import mtbench_tolerance
 from .task import HAND_HIGH, HAND_LOW, REWARD_VERSIONS, MetaWorldTask, Reward, TaskState
 
 STATE_DIM = layout.STATE_DIM
@@ -249,14 +250,17 @@ class MetaWorldEnv(EnvBase):
             s.sim.ctrl[:, 0] = -a[:, 3]  # tendon force: positive opens the fingers; action +1 closes
 
     def _evaluate(self, action: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Reward and success of every world from the blocks' named state (refreshed after the physics)."""
+        """Reward and success of every world from the blocks' named state (refreshed after the physics). The
+        ``"paper"`` version evaluates them with the original MTBench's ``tolerance`` (see
+        :func:`~.reward_utils.mtbench_tolerance`)."""
         rewards, successes = [], []
-        for (task, s), dense_reward, sl in zip(self.blocks, self._dense_rewards, self.slices):
-            a = action[sl]
-            scaled = dense_reward(s, a) * (task.dense_scale * self.reward_scale)
-            success = task.success(s, a)
-            rewards.append(torch.where(success, task.success_reward(s, a), scaled))
-            successes.append(success)
+        with mtbench_tolerance(self.reward_version == "paper"):
+            for (task, s), dense_reward, sl in zip(self.blocks, self._dense_rewards, self.slices):
+                a = action[sl]
+                scaled = dense_reward(s, a) * (task.dense_scale * self.reward_scale)
+                success = task.success(s, a)
+                rewards.append(torch.where(success, task.success_reward(s, a), scaled))
+                successes.append(success)
         return torch.cat(rewards), torch.cat(successes)
 
     # ------------------------------------------------------------------ the step, as four torch stages

@@ -21,15 +21,18 @@ package. Behaviour that differs from Meta-World, all in cases where Meta-World r
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 from numbers import Real
-from typing import Literal, Union
+from typing import Iterator, Literal, Union
 
 import torch
 from torch import Tensor
 
 __all__ = [
     "SIGMOIDS",
+    "mtbench_tolerance",
     "above_floor_funnel",
     "check_unit_interval",
     "gripper_caging_reward",
@@ -168,6 +171,8 @@ def tolerance(
         raise ValueError(f"Lower bound must be <= upper bound, got bounds=({lower}, {upper}).")
     x = _as_float_tensor(x)
     in_bounds = (x >= lower) & (x <= upper)
+    if _MTBENCH_TOLERANCE.get():
+        return _mtbench_tolerance_value(x, lower, upper, in_bounds, margin, sigmoid, value_at_margin)
     if isinstance(margin, Real):
         if margin < 0:
             raise ValueError(f"`margin` must be non-negative. Current value: {margin}")
@@ -182,6 +187,38 @@ def tolerance(
     d = torch.where(x < lower, lower - x, x - upper) / torch.where(positive, margin, 1.0)
     outside = torch.where(positive, _apply_sigmoid(d, scale, sigmoid), 0.0)
     return torch.where(in_bounds, 1.0, outside)
+
+
+_MTBENCH_TOLERANCE: contextvars.ContextVar[bool] = contextvars.ContextVar("mtbench_tolerance", default=False)
+
+
+@contextlib.contextmanager
+def mtbench_tolerance(enabled: bool = True) -> Iterator[None]:
+    """Within this context :func:`tolerance` (and everything built on it, e.g. :func:`gripper_caging_reward`)
+    behaves like the original MTBench's ``isaacgymenvs/tasks/reward_utils.py::tolerance`` (ed2e2b5), which the
+    paper's rewards were computed with: it returns **0 inside the bounds** whenever the margin is positive (its
+    ``torch.where`` keeps the margin-0 branch's 0 there), and 0 everywhere where the margin is 0; outside the bounds
+    with a positive margin it agrees with Meta-World. The env evaluates the ``reward_version="paper"`` rewards in
+    this context. The context is read when the reward is traced, so a CUDA graph captured inside it keeps it.
+    """
+    token = _MTBENCH_TOLERANCE.set(bool(enabled))
+    try:
+        yield
+    finally:
+        _MTBENCH_TOLERANCE.reset(token)
+
+
+def _mtbench_tolerance_value(x: Tensor, lower: ScalarOrTensor, upper: ScalarOrTensor, in_bounds: Tensor,
+                             margin: ScalarOrTensor, sigmoid: str, value_at_margin: float) -> Tensor:
+    """MTBench's tolerance: ``sigmoid(d / margin)`` outside the bounds where the margin is positive, else 0."""
+    scale = _sigmoid_scale(sigmoid, float(value_at_margin))
+    margin_t = _as_float_tensor(margin).to(x.device) if isinstance(margin, Tensor) else float(margin)
+    if isinstance(margin_t, float) and margin_t < 0:
+        raise ValueError(f"`margin` must be non-negative. Current value: {margin}")
+    positive = (margin_t > 0) if isinstance(margin_t, Tensor) else torch.full_like(x, margin_t > 0, dtype=torch.bool)
+    safe_margin = torch.where(positive, margin_t, 1.0) if isinstance(margin_t, Tensor) else max(margin_t, 1e-30)
+    d = torch.where(x < lower, lower - x, x - upper) / safe_margin
+    return torch.where(positive & ~in_bounds, _apply_sigmoid(d, scale, sigmoid), 0.0)
 
 
 def hamacher_product(a: ScalarOrTensor, b: ScalarOrTensor) -> Tensor:

@@ -25,8 +25,10 @@ from .scene import SceneSpec
 HAND_LOW = (-0.525, 0.348, 0.0)
 HAND_HIGH = (0.525, 1.025, 0.7)
 
-# ``paper``: the paper-era MTBench rewards (reproduces the paper's tables); ``v2``: mtbench's redesigned rewards for
-# the tasks whose paper-era reward leaves MT-PPO at ~0% success (the others are identical in both versions).
+# ``paper``: the paper-era MTBench rewards, evaluated with the original's ``tolerance`` (0 inside its bounds: see
+# ``reward_utils.mtbench_tolerance``), which reproduces the paper's tables; ``v2``: the same formulas with a correct
+# ``tolerance`` (1 inside the bounds, Meta-World's), plus mtbench's redesigned rewards for the tasks whose
+# paper-era reward leaves MT-PPO at ~0% success.
 REWARD_VERSIONS: tuple[str, ...] = ("paper", "v2")
 
 Reward = Callable[["TaskState", torch.Tensor], torch.Tensor]
@@ -197,11 +199,13 @@ class MetaWorldTask:
 
     def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         """The paper-era dense reward ``[n]`` on the task's own scale (the env multiplies it by ``dense_scale``
-        and ``reward_scale``)."""
+        and ``reward_scale``). In ``reward_version="paper"`` the env evaluates it under
+        :func:`~.reward_utils.mtbench_tolerance`, in ``"v2"`` with the correct ``tolerance``."""
         raise NotImplementedError(f"task {self.name!r} does not define reward()")
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
-        """The ``reward_version="v2"`` dense reward; the paper-era reward unless the task redefines it."""
+        """The ``reward_version="v2"`` dense reward: the paper-era formula with the correct ``tolerance`` unless
+        the task redefines it."""
         return self.reward(s, action)
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:

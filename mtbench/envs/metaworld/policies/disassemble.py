@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 
 from ._common import action, parse
-from ._grasp import grasp_phase, move_lead, shifted
+from ._grasp import grasp_phase, move_lead
 
 HANDLE_GRASP = dict(above=0.06, xy_tol=0.008, grasp_tol=0.004, hold_tol=0.02,
                     held_below=0.6,  # openness: open 0.91, closed on the 3.8 cm handle ~0.45

@@ -25,7 +25,7 @@ import torch
 from ._common import action, move, parse
 
 HINGE_FROM_GOAL = (0.115, 0.35)  # hinge (x, y) = goal + this
-HANDLE_AT_ZERO = (0.3757, -0.1071)  # handle geom centre relative to the hinge with the door closed
+HANDLE_AT_ZERO = (0.325, -0.062)  # observed handle point relative to the hinge with the door closed
 HANDLE_PHASE = math.atan2(HANDLE_AT_ZERO[1], HANDLE_AT_ZERO[0])
 FINGER_Y = 0.054  # open gripper: finger centre to TCP distance along world y
 # phase A: far (+y) finger centre in door coordinates (x along the panel from the hinge, y = -(distance from the
@@ -41,7 +41,7 @@ PUSH_Z = 0.25  # fingertips overlap the panel's top 3 cm; the palm (from TCP + 3
 CLEAR_Z = 0.31  # TCP height that clears the panel top (0.273) when moving between the phases
 SWITCH_ANGLE = -0.6  # rad: phase A pulls the door this far, phase B pushes it on
 LEAD = 0.3  # rad: the hand leads the door along its arc by this angle
-FINAL_ANGLE = -1.55  # rad: push target (success needs about -1.38 to -1.82; the panel meets the safe at about -1.53)
+FINAL_ANGLE = -1.7  # rad: push target (success needs -2 to -1.49)
 RISE_FIRST = 0.04  # below high_z by more than this: rise straight up before travelling
 ALIGNED = 0.015  # phase A: x-y tolerance before descending beside the bar
 INNER_CLEAR = 0.045  # phase B: closed fingers (<= 2.7 cm from the TCP along the normal) clear of the panel

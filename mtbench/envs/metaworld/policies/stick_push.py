@@ -7,7 +7,6 @@ import torch
 
 from ._common import action, parse
 from ._grasp import PUCK_GRASP, grasp_phase, move_lead
-from ._tools import with_z
 
 STICK_HALF_LENGTH = 0.1
 THERMOS_RADIUS = 0.06

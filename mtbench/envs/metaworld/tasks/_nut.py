@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import torch
 
-from ..scene import SceneSpec
 from ..task import Objects, TaskState
 
 XML = "sawyer_assembly_peg.xml"

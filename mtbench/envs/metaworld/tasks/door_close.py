@@ -6,14 +6,9 @@ import mujoco
 import torch
 
 from ..reward_utils import tolerance
-from ..scene import SceneSpec, guide_by_joint
+from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
-
-SAFE_BODY = "door"
-DOOR_BODY = "door_link"
-DOOR_JOINT = "doorjoint"
-HANDLE_SITE = "handle_point"
-HANDLE_ON_DOOR = (0.325, -0.062, 0.0)  # MTBench's ``handle`` body in the door frame (= Meta-World's handle geom pos)
+from ._door import DOOR_BODY, DOOR_JOINT, HANDLE_SITE, SAFE_BODY, edit_door_scene
 OPEN_ANGLE = -1.5708  # MTBench and Meta-World start the door opened by 90 degrees
 GOAL_FROM_SAFE = (0.15, -0.16, 0.0)  # MTBench: root + (-.16, -.15, 0) in its frame ("metaworld uses -.2,-.2")
 TARGET_RADIUS = 0.05
@@ -77,9 +72,7 @@ class DoorClose(MetaWorldTask):
     @classmethod
     def edit_spec(cls, spec: mujoco.MjSpec) -> None:
         """The door turns on its hinge alone; the site ``handle_point`` marks MTBench's handle point."""
-        guide_by_joint(spec, DOOR_BODY, DOOR_JOINT, ("doorlockB", "RetainingWall"))
-        spec.body(DOOR_BODY).add_site(name=HANDLE_SITE, pos=list(HANDLE_ON_DOOR), size=[0.005, 0.005, 0.005],
-                                      group=4)
+        edit_door_scene(spec)
 
     def bind(self, model) -> None:
         self.safe_body = self.body_id(SAFE_BODY)

@@ -1,43 +1,35 @@
-"""Door open: swing a hinged safe door open by its handle (Meta-World ``door-open-v3``).
+"""Door open: swing a hinged safe door open by its handle (MTBench ``task_fns/door_open.py``, Meta-World
+``door-open-v3``).
 
-Scene: Meta-World's ``sawyer_door_pull.xml`` (``doorlockB``). The safe (body ``door``) is a fixed body whose
-position is sampled per world (batched ``body_pos``); the door panel (``door_link``) turns about a vertical hinge
-(``doorjoint``, range [-2, 0] rad, closed at 0, opening towards the robot). The handle is a horizontal bar
-sticking out of the panel's outer face. All of the door's collision geoms have ``contype = conaffinity = 1``, so
-the Panda (contype 1) collides with the handle, the panel and the safe.
+Scene: see :mod:`._door` (Meta-World's ``sawyer_door_pull.xml``, ``doorlockB``). All of the door's collision geoms
+have ``contype = conaffinity = 1``, so the Panda collides with the handle, the panel and the safe.
 
-Observation (object part): position and quaternion (wxyz) of the ``handle`` geom (Meta-World's
-``_get_pos_objects`` / ``_get_quat_objects``; the geom frame is the mesh's centre after MuJoCo re-centres it,
-at (0.191, -0.207, 0) from the safe's origin when closed). Goal: ``door + (-0.3, -0.45, 0)``.
+Dense reward (paper-era MTBench, before its ``* .01``), with ``handle`` = MTBench's handle point (site
+``handle_point``) and heights measured from the table top (MTBench's ``TABLE_Z``)::
 
-Reward: Meta-World v2 ``compute_reward`` (metaworld 3.0.0, without the success override), Meta-World's scale::
-
-    door           = handle + (-0.05, 0, 0)
-    above_floor    = above_floor_funnel(hand, door, threshold=0.12)        # log funnel around the handle
-    in_place       = tolerance(|hand - door - (0.05, 0.03, -0.01)|, (0, 0.06), margin=0.5, long_tail)
+    door           = handle + (0.075, -0.15, 0)        # MTBench: handle + (-.15, -.075) in its frame
+    radius         = ‖tcp_xy − door_xy‖
+    floor          = 0 if radius ≤ 0.12 else 0.04 · log(radius − 0.12) + 0.25      # a funnel around the handle
+    above_floor    = 1 if tcp_z ≥ floor else tolerance(floor − tcp_z, (0, 0.01), margin=0.1, long_tail)
+    in_place       = tolerance(‖tcp − door + (0, 0, 0.01)‖, (0, 0.06), margin=0.5, long_tail)
     ready_to_open  = hamacher(above_floor, in_place)
-    opened         = 0.2 * [theta < -pi/90] + 0.8 * tolerance(pi/2 + pi/6 + theta, (0, 0.5), margin=pi/3, long_tail)
-    grab           = (clip(action[3], -1, 1) + 1) / 2
-    r = 2 * hamacher(ready_to_open, grab) + 8 * opened
+    opened         = 0.2 · [theta < −π/90] + 0.8 · tolerance(π/2 + π/6 + theta, (0, 0.5), margin=π/3, long_tail),
+                     = 1 when the door is open by more than 1.5 rad
+    r = 2 · hamacher(ready_to_open, tcp_opened) + 8 · opened
 
-with ``theta`` the hinge angle (negative = open) and ``hand`` = ``obs[0:3]``.
+with ``theta`` the hinge angle (negative = open) and ``tcp_opened`` = pad distance / 0.095 clipped to [0, 1]
+(MTBench rewards an *open* gripper here; Meta-World v2 rewards the closing effort).
 
-Success (paper-era MTBench ``|door_y - target_y| <= 0.08`` in MTBench's frame, whose y axis is Meta-World's -x
-and whose "door" is the handle body): in Meta-World's frame ``|handle_x - goal_x| <= 0.08``, which is also
-Meta-World's own rule. With the handle geometry this holds for hinge angles in about [-1.82, -1.38] rad
-(door opened 79 to 104 degrees).
+Success (MTBench ``|door_y − target_y| ≤ 0.08`` in its frame, whose y axis is our −x and whose ``door`` is the
+handle point): ``|handle_x − goal_x| ≤ 0.08`` with goal = safe + (−0.3, −0.45, 0) (MTBench's target
+``root + (−.45, .3, 0)``). With the handle point at ``door_link + (0.325, −0.062, 0)`` this holds for hinge angles in
+[−2, −1.49] rad (door opened 85 degrees up to its 115-degree limit).
 
-Physics notes: the opening panel meets the safe's side wall at about -1.53 rad, inside the success band. The
-Panda's palm is 20 cm long along the finger axis (world y), so it cannot put its closed fingers between the bar and
-the panel as the Sawyer does; it can straddle the bar with open fingers (the scripted policy pulls with the far
-finger, then pushes the panel's inner face). The ``in_place`` ball (6 cm) is reachable in that pose, but the grab
-term pays for closing the fingers, which there grasps the bar, and the weld holds the hand orientation while the
-bar turns, so a closed grasp resists opening; an agent has to trade the 2 grab points for the 8 opening points.
+Reset (MTBench ``obj_low/obj_high`` (.35, −.1) .. (.45, 0) at table + .3/2): safe at x ~ U[0, 0.1],
+y ~ U[0.95, 1.05], z = 0.15 (Meta-World v3: y in [0.85, 0.95]; MTBench moved the safe 10 cm back), door closed.
 
-Differences to Meta-World: ``hand`` is the Panda's finger-pad midpoint (the framework's ``obs[0:3]``; Meta-World
-used the Sawyer hand body). MTBench replaced the grab-effort term by the gripper openness and moved the funnel and
-the in-place target for the Franka; this task keeps Meta-World's v2 reward (not the 2026 upstream change).
-The safe's own collision geoms move with it (``WarpSim.set_body_pos``; MuJoCo Warp treats them as static).
+Differences: the hand starts at Meta-World's TCP position (0, 0.6, 0.2); ``init_tcp`` is recorded at every reset
+(MTBench: once). The safe's own collision geoms move with it (``WarpSim.set_body_pos``).
 """
 
 from __future__ import annotations
@@ -47,102 +39,79 @@ import math
 import mujoco
 import torch
 
-from ..reward_utils import above_floor_funnel, hamacher_product, tolerance
-from ..scene import SceneSpec, guide_by_joint
+from ..reward_utils import hamacher_product, mtbench_gripper_openness, tolerance
+from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
+from ._door import DOOR_BODY, DOOR_JOINT, HANDLE_SITE, SAFE_BODY, edit_door_scene
+
+GOAL_OFFSET = (-0.3, -0.45, 0.0)  # goal relative to the safe (MTBench's target_pos)
+REACH_OFFSET = (0.075, -0.15, 0.0)  # MTBench's ``door`` point relative to the handle point
+FUNNEL_RADIUS = 0.12
+SUCCESS_TOL = 0.08
 
 
-def quat_mul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-    """Hamilton product of wxyz quaternions (broadcasting over leading dims)."""
-    aw, ax, ay, az = a.unbind(-1)
-    bw, bx, by, bz = b.unbind(-1)
-    return torch.stack([
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    ], dim=-1)
-
-
-def quat_rotate(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
-    """Rotate vectors ``v`` by wxyz unit quaternions ``q``."""
-    w, u = q[..., :1], q[..., 1:]
-    t = 2.0 * torch.linalg.cross(u, v)
-    return v + w * t + torch.linalg.cross(u, t)
-
-
-def door_open_reward(hand: torch.Tensor, handle: torch.Tensor, theta: torch.Tensor,
-                     grab_action: torch.Tensor) -> torch.Tensor:
-    """Meta-World v2 dense reward of door-open (``[n]``, scale 0..10); pure function of tensors."""
-    door = offset(handle, -0.05, 0.0, 0.0)
-    threshold = DoorOpen.FUNNEL_THRESHOLD
-    above_floor = above_floor_funnel(hand, door, threshold)
-    in_place = tolerance(
-        offset(hand - door, -0.05, -0.03, 0.01).norm(dim=-1),
-        bounds=(0.0, threshold / 2.0), margin=0.5, sigmoid="long_tail",
-    )
+def door_open_reward(tcp: torch.Tensor, handle: torch.Tensor, theta: torch.Tensor,
+                     tcp_opened: torch.Tensor) -> torch.Tensor:
+    """MTBench's door-open dense term (``[n]``, 0..10; see the module docstring); pure function of tensors."""
+    door = offset(handle, *REACH_OFFSET)
+    radius = (tcp[..., :2] - door[..., :2]).norm(dim=-1)
+    funnel = 0.04 * torch.log((radius - FUNNEL_RADIUS).clamp_min(1e-12)) + 0.25
+    floor = torch.where(radius <= FUNNEL_RADIUS, torch.zeros_like(radius), funnel)
+    above_floor = tolerance(floor - tcp[..., 2], bounds=(0.0, 0.01), margin=0.1, sigmoid="long_tail")
+    above_floor = torch.where(tcp[..., 2] >= floor, torch.ones_like(above_floor), above_floor)
+    in_place = tolerance(offset(tcp - door, 0.0, 0.0, 0.01).norm(dim=-1), bounds=(0.0, 0.06), margin=0.5,
+                         sigmoid="long_tail")
     ready_to_open = hamacher_product(above_floor, in_place)
-    opened = 0.2 * (theta < -math.pi / 90.0).to(hand.dtype) + 0.8 * tolerance(
-        math.pi / 2.0 + math.pi / 6.0 + theta, bounds=(0.0, 0.5), margin=math.pi / 3.0, sigmoid="long_tail",
-    )
-    grab = (grab_action.clamp(-1.0, 1.0) + 1.0) / 2.0
-    return 2.0 * hamacher_product(ready_to_open, grab) + 8.0 * opened
+    door_angle = -theta
+    opened = 0.2 * (theta < -math.pi / 90.0).to(tcp.dtype) + 0.8 * tolerance(
+        math.pi / 2.0 + math.pi / 6.0 - door_angle, bounds=(0.0, 0.5), margin=math.pi / 3.0, sigmoid="long_tail")
+    opened = torch.where(door_angle > 1.5, torch.ones_like(opened), opened)
+    return 2.0 * hamacher_product(ready_to_open, tcp_opened) + 8.0 * opened
 
 
 def door_open_success(handle: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
-    """``|handle_x - goal_x| <= 0.08`` (MTBench's rule expressed in Meta-World's frame; ``[n]`` bool)."""
-    return (handle[..., 0] - goal[..., 0]).abs() <= DoorOpen.SUCCESS_TOL
+    """``|handle_x − goal_x| ≤ 0.08`` (MTBench's rule in our frame; ``[n]`` bool)."""
+    return (handle[..., 0] - goal[..., 0]).abs() <= SUCCESS_TOL
 
 
 class DoorOpen(MetaWorldTask):
-    """Swing the safe door open by about 90 degrees (see the module docstring)."""
+    """Swing the safe door open by about 90 degrees (see the module docstring).
+
+    Observation: object 1 = MTBench's handle point and the door's quaternion; goal = safe + (−0.3, −0.45, 0).
+    """
 
     name = "door_open"
     mtbench_id = 16
     description = "Grab the door handle and swing the door open on its hinges."
     scene = SceneSpec("sawyer_door_pull.xml", hand_init_pos=(0.0, 0.6, 0.2))
-    # safe (door body) position x, y, z (Meta-World obj_low/obj_high); the goal follows from it
-    reset_low = (0.0, 0.85, 0.15)
-    reset_high = (0.1, 0.95, 0.15)
-    GOAL_OFFSET = (-0.3, -0.45, 0.0)
-    FUNNEL_THRESHOLD = 0.12
-    SUCCESS_TOL = 0.08
+    reset_low = (0.0, 0.95, 0.15)
+    reset_high = (0.1, 1.05, 0.15)
 
     @classmethod
     def edit_spec(cls, spec: mujoco.MjSpec) -> None:
-        """The door turns on its hinge alone (no contacts with its frame or the wall; stiff limit)."""
-        guide_by_joint(spec, "door_link", "doorjoint", ("doorlockB", "RetainingWall"))
+        edit_door_scene(spec)
 
     def bind(self, model) -> None:
-        self.door_body = self.body_id("door")
-        self.link_body = self.body_id("door_link")
-        self.door_qpos = self.joint_qposadr("doorjoint")
-        handle = model.geom("handle")
-        if int(handle.bodyid[0]) != self.link_body:
-            raise RuntimeError("door handle geom is expected on body door_link")
-        # handle geom frame relative to door_link (after MuJoCo's mesh re-centring)
-        self._handle_local = self.const([*handle.pos, *handle.quat])
+        self.safe_body = self.body_id(SAFE_BODY)
+        self.door_body = self.body_id(DOOR_BODY)
+        self.door_qpos = self.joint_qposadr(DOOR_JOINT)
+        self.handle_site = self.site_id(HANDLE_SITE)
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
-        self.set_body_pos(s.sim, self.door_body, vec[:, :3], mask)
+        safe = vec[:, :3]
+        self.set_body_pos(s.sim, self.safe_body, safe, mask)
         self.set_joint(s.sim, self.door_qpos, 0.0, mask)
-        self.masked_set(s.obj_init_pos, vec[:, :3], mask)
-        self.masked_set(s.goal, offset(vec[:, :3], *self.GOAL_OFFSET), mask)
+        self.masked_set(s.goal, offset(safe, *GOAL_OFFSET), mask)
 
-    def handle_pose(self, s: TaskState) -> tuple[torch.Tensor, torch.Tensor]:
-        """World position and wxyz quaternion of the handle geom ``[n, 3], [n, 4]``."""
-        link_pos = s.sim.xpos[:, self.link_body]
-        link_quat = s.sim.xquat[:, self.link_body]
-        local = self._handle_local
-        pos = link_pos + quat_rotate(link_quat, local[:3].expand_as(link_pos))
-        quat = quat_mul(link_quat, local[3:].expand_as(link_quat))
-        return pos, quat
+    def after_reset(self, s: TaskState, mask: torch.Tensor) -> None:
+        self.masked_set(s.obj_init_pos, s.obj_pos, mask)
 
     def objects(self, s: TaskState) -> Objects:
-        return Objects(*self.handle_pose(s))
+        return Objects(s.sim.site_xpos[:, self.handle_site], s.sim.xquat[:, self.door_body])
 
     def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
-        return door_open_reward(s.tcp, s.obj_pos, s.sim.qpos[:, self.door_qpos], action[:, 3])
+        tcp_opened = mtbench_gripper_openness(s.left_pad, s.right_pad)
+        return door_open_reward(s.tcp, s.obj_pos, s.sim.qpos[:, self.door_qpos], tcp_opened)
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return door_open_success(s.obj_pos, s.goal)
