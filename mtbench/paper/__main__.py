@@ -111,7 +111,8 @@ def cmd_report(args: argparse.Namespace) -> int:
     for table in tables:
         command = "python -m mtbench.paper " + shlex.join(["report", table, *args.extra_argv])
         path = build_report(table, out=_out(args, table, len(tables) > 1), docs_dir=args.docs,
-                            conf_dir=args.conf_dir, lib=lib, reps=args.reps, command=command.strip())
+                            conf_dir=args.conf_dir, lib=lib, reps=args.reps, command=command.strip(),
+                            notes=args.note)
         print(f"wrote {path}")
     return 0
 
@@ -151,10 +152,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     p_rep.add_argument("--docs", type=Path, default=REPO_ROOT / "docs" / "results" / "paper",
                        help="where the markdown and PNGs go (default: docs/results/paper)")
     p_rep.add_argument("--reps", type=int, default=10_000, help="bootstrap resamples (default 10000)")
+    p_rep.add_argument("--note", action="append", default=[], metavar="TEXT",
+                       help="a line about the runs for the report (machine, code version, ...); repeatable")
     p_rep.set_defaults(func=cmd_report)
 
     args = parser.parse_args(argv)
-    args.extra_argv = argv[argv.index(args.table) + 1:] if getattr(args, "table", None) in argv else []
+    rest = argv[argv.index(args.table) + 1:] if getattr(args, "table", None) in argv else []
+    args.extra_argv = [a for i, a in enumerate(rest) if a != "--note" and (i == 0 or rest[i - 1] != "--note")
+                       and not a.startswith("--note=")]
     return int(args.func(args))
 
 

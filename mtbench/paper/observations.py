@@ -51,10 +51,10 @@ def plot_curves(groups: Mapping[str, Sequence[RunResult]], path: Path, *, title:
     band. ``None`` when no group has data."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(8, 4.8))
-    cmap = plt.get_cmap("tab20")
+    cmap = plt.get_cmap("tab10" if len(groups) <= 10 else "tab20")
     drawn = 0
     for i, (label, runs) in enumerate(groups.items()):
-        drawn += _band(ax, runs, key, label, reps=reps, color=cmap(i % 20))
+        drawn += _band(ax, runs, key, label, reps=reps, color=cmap(i % cmap.N))
     if not drawn:
         plt.close(fig)
         return None

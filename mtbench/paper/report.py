@@ -89,7 +89,7 @@ def _status(res: RowResult, out: Path) -> str:
     if res.problems:
         return "not available: " + "; ".join(res.problems)
     if not res.runs:
-        return f"no runs under {out / res.row.name}"
+        return f"no runs under `{_rel(out / res.row.name)}`"
     done = sum(r.finished for r in res.runs)
     return f"{done}/{len(res.runs)} runs finished"
 
@@ -239,6 +239,7 @@ def build_report(
     lib: Library | None = None,
     reps: int = DEFAULT_REPS,
     command: str | None = None,
+    notes: Sequence[str] = (),
 ) -> Path:
     """Write ``<docs_dir>/<table>.md`` and its PNGs; return the markdown path."""
     out = Path(out) if out is not None else REPO_ROOT / "runs" / "paper" / table
@@ -264,6 +265,7 @@ def build_report(
         f"- Aggregates over seeds: mean and IQM with 95% stratified bootstrap CIs (rliable, {reps:,} resamples, "
         "percentile method); with 3 or fewer seeds the IQM equals the mean (25% trimming drops no run).",
         f"- Built {time.strftime('%Y-%m-%d %H:%M')} by `{command or f'python -m mtbench.paper report {table}'}`.",
+        *[f"- {note}" for note in notes],
         "",
     ]
     main = "progress" if info["metric"] == "progress" else "success"
