@@ -293,7 +293,9 @@ def test_runner_starts_parkour_rows_from_their_pretraining(tmp_path, tables):
     launches = plan_runs([park["flat_vanilla"], park["hard_pcgrad"]], out=tmp_path, seeds=1, frames=100)
     assert execute(launches, runner=_fake_trainer(calls), echo=lambda s: None) == 0
     assert any(a.startswith("++init_from=") and a.endswith("flat_vanilla/s42/checkpoints/final.pt") for a in calls[-1])
-    assert "env=null" in calls[-1]  # no conf/env/parkour_hard.yaml yet: the row's inline env, no CPU preset
+    # the row's env option when conf/env/parkour_hard.yaml exists, else its inline env (and never the CPU preset)
+    conf_env = Path(__file__).resolve().parents[1] / "conf" / "env" / "parkour_hard.yaml"
+    assert ("env=parkour_hard" if conf_env.exists() else "env=null") in calls[-1]
 
 
 # ------------------------------------------------------------------------------------------------ report
