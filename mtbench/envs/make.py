@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from typing import Any, Sequence
 
 import torch
@@ -51,6 +52,8 @@ def make_env(
     """
     if device is None:
         device = "cuda" if torch.cuda.is_available() else "cpu"
+    if not re.fullmatch(r"cpu|cuda(:\d+)?", str(device)):
+        raise ValueError(f"device={str(device)!r} is not supported; valid choices: 'cpu', 'cuda', 'cuda:<index>'")
     if isinstance(name, str):
         if name in METAWORLD_SETS:
             benchmark, rand = METAWORLD_SETS[name]
@@ -67,12 +70,20 @@ def make_env(
         unknown = [t for t in tasks if t not in ALL_TASK_NAMES]
         if unknown:
             raise ValueError(f"unknown task names {unknown}; valid choices: {sorted(ALL_TASK_NAMES)}")
+    def _positive_int(value: Any) -> bool:
+        return isinstance(value, int) and not isinstance(value, bool) and value >= 1
+
     if num_envs is None:
         counts = [1] * len(tasks)
-    elif isinstance(num_envs, int):
+    elif _positive_int(num_envs):
         counts = split_envs(num_envs, len(tasks))
     else:
-        counts = [int(c) for c in num_envs]
+        if isinstance(num_envs, (str, bytes)) or not isinstance(num_envs, Sequence) or not all(
+            _positive_int(c) for c in num_envs
+        ):
+            raise ValueError(f"num_envs must be a positive integer (split over the tasks) or a list of one positive "
+                             f"integer per task; got {num_envs!r}")
+        counts = list(num_envs)
         if len(counts) != len(tasks):
             raise ValueError(f"{len(counts)} env counts given for {len(tasks)} tasks {tasks}; give one per task")
     return MetaWorldEnv(tasks, counts, device=device, **overrides)
