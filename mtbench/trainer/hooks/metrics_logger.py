@@ -32,12 +32,13 @@ class MetricsLogger(TrainerHook):
         self.logger.log_metrics(metrics, step=trainer.frames)
 
     def state_dict(self) -> dict[str, Any]:
-        counters = getattr(self.logger, "_checkpoint_state", None)
-        return {"hparams_logged": self.hparams_logged, "logger": counters() if callable(counters) else None}
+        """TorchRL's ``Logger.state_dict()`` (it also flushes: the metrics up to the checkpoint are on disk)."""
+        logger_state = getattr(self.logger, "state_dict", None)
+        return {"hparams_logged": self.hparams_logged, "logger": logger_state() if callable(logger_state) else None}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.hparams_logged = bool(state.get("hparams_logged", True))
-        load = getattr(self.logger, "_load_checkpoint_state", None)
+        load = getattr(self.logger, "load_state_dict", None)
         if state.get("logger") is not None and callable(load):
             load(state["logger"])
 
