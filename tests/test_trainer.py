@@ -121,6 +121,9 @@ class Recorder(TrainerHook):
     def on_train_end(self, trainer: Any, stopped: bool) -> None:
         self.calls.append(f"train_end(stopped={stopped})")
 
+    def on_error(self, trainer: Any, error: BaseException) -> None:
+        self.calls.append(f"error({type(error).__name__})")
+
 
 def test_hooks_are_called_at_their_points_in_order(tmp_path: Path) -> None:
     trainer = build_trainer(_cfg(tmp_path, "max_iterations=1", "loss.horizon=2", "loss.minibatch_size=24"), env=_env())
@@ -280,12 +283,15 @@ def test_non_finite_updates_are_skipped_and_counted(tmp_path: Path) -> None:
 
 
 def test_repeated_non_finite_iterations_abort(tmp_path: Path) -> None:
-    trainer = build_trainer(_cfg(tmp_path, "max_nonfinite_iterations=1", "loss.minibatch_size=96"),
-                            env=_env(nan_reward_at_step=10))
+    trainer = build_trainer(_cfg(tmp_path, "max_nonfinite_iterations=1", "loss.minibatch_size=96",
+                                 "max_iterations=2"), env=_env(nan_reward_at_step=10))
+    recorder = Recorder()
+    trainer.add_hook(recorder)
     with pytest.raises(RuntimeError, match="non-finite"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         trainer.train()
-    assert trainer.iteration == 2
+    assert trainer.iteration == 2 and recorder.calls[-1] == "error(RuntimeError)"
+    assert not list((tmp_path / "ckpt").glob("*.pt"))  # no checkpoint of a failed run, even at its last iteration
 
 
 def test_adaptive_learning_rate_follows_kl(tmp_path: Path) -> None:

@@ -18,7 +18,9 @@ def rollout_time_dim(estimator: ValueEstimatorBase, tensordict: TensorDictBase, 
     """The time dimension of a ``[*B, T]`` rollout (TorchRL's rule: ``time_dim``, the dim named ``"time"``, else
     the last); the estimators here need it to be the last batch dimension."""
     if tensordict.batch_dims < 1:
-        raise ValueError(f"{type(estimator).__name__} expects a [*B, T] rollout, got batch_size={tensordict.batch_size}")
+        raise ValueError(
+            f"{type(estimator).__name__} expects a [*B, T] rollout, got batch_size={tensordict.batch_size}"
+        )
     dim = estimator._get_time_dim(time_dim, tensordict)
     if dim != tensordict.batch_dims - 1:
         raise ValueError(

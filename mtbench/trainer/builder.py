@@ -15,7 +15,15 @@ from ..objectives.ppo import MTClipPPOBase
 from ..transforms import PerTaskObservationNorm
 from .actor_critic import GaussianPolicyHead, make_actor, make_critic
 from .checkpoint import CheckpointError, load_checkpoint, seed_everything
-from .config import as_config, check_config, resolve_device, resolve_run_paths, total_iterations, warn_if_cpu_run_too_big
+from .config import (
+    as_config,
+    check_config,
+    effective_minibatch_size,
+    resolve_device,
+    resolve_run_paths,
+    total_iterations,
+    warn_if_cpu_run_too_big,
+)
 from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
 from .rollout import base_env
 from .trainer import Trainer
@@ -29,7 +37,9 @@ def build_env(cfg: DictConfig, device: torch.device) -> EnvBase:
     env_cfg = cfg.env
     warn_if_cpu_run_too_big(device, int(env_cfg.num_envs), int(cfg.loss.horizon))
     raw = env_cfg.get("overrides")
-    overrides: dict[str, Any] = {} if raw is None else dict(OmegaConf.to_container(raw, resolve=True))  # type: ignore[arg-type]
+    overrides: dict[str, Any] = {}
+    if raw is not None:
+        overrides = dict(OmegaConf.to_container(raw, resolve=True))  # type: ignore[arg-type]
     name = env_cfg["name"]
     if OmegaConf.is_list(name) or isinstance(name, (list, tuple)):
         name = list(name)
@@ -126,7 +136,9 @@ def resolve_graph_update(value: Any, device: torch.device, plain_loss: bool) -> 
     return value
 
 
-def build_optimizer(loss: nn.Module, loss_cfg: Mapping[str, Any], device: torch.device, capturable: bool) -> torch.optim.Adam:
+def build_optimizer(
+    loss: nn.Module, loss_cfg: Mapping[str, Any], device: torch.device, capturable: bool
+) -> torch.optim.Adam:
     """Fused Adam (``loss.lr``, ``loss.adam_eps``) over the loss's trainable parameters, with a tensor learning
     rate (changed in place by the adaptive schedule; ``capturable`` for a CUDA-graphed update)."""
     params = [p for p in loss.parameters() if p.requires_grad]
@@ -180,6 +192,7 @@ def build_trainer(cfg: Mapping[str, Any] | DictConfig, env: EnvBase | None = Non
         torch.set_num_threads(int(cfg.torch_threads))
     seed_everything(int(cfg.seed))
     if env is None:
+        effective_minibatch_size(int(cfg.env.num_envs), int(cfg.loss.horizon), int(cfg.loss.minibatch_size))
         env = build_env(cfg, device)
     else:
         warn_if_cpu_run_too_big(device, int(env.batch_size.numel()), int(cfg.loss.horizon))

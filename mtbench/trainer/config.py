@@ -92,6 +92,17 @@ def check_config(cfg: DictConfig) -> None:
                          f"{Path(str(resume)) / 'checkpoints' / 'last.pt'})")
 
 
+def effective_minibatch_size(num_envs: int, horizon: int, minibatch_size: int) -> int:
+    """``loss.minibatch_size`` when it divides the batch ``num_envs * horizon``, the batch when it is larger
+    (one minibatch); else ``ValueError``."""
+    batch = num_envs * horizon
+    size = min(int(minibatch_size), batch)
+    if size < 1 or batch % size:
+        raise ValueError(f"loss.minibatch_size={minibatch_size} must divide the batch num_envs*horizon = "
+                         f"{num_envs}*{horizon} = {batch} (or be >= it: one minibatch)")
+    return size
+
+
 def total_iterations(cfg: DictConfig, frames_per_batch: int) -> int:
     """``ceil(total_frames / frames_per_batch)`` when ``total_frames`` is set, else ``max_iterations``."""
     if cfg.get("total_frames") is not None:
@@ -176,6 +187,7 @@ __all__ = [
     "PROGRESS_MODES",
     "as_config",
     "check_config",
+    "effective_minibatch_size",
     "hydra_output_dir",
     "resolve_device",
     "resolve_run_paths",

@@ -96,7 +96,9 @@ class Rollout:
         return td.update(out.select(*self._out_keys, strict=False).clone())
 
     @torch.no_grad()
-    def collect(self, on_step: StepCallback | None = None, should_stop: Callable[[], bool] | None = None) -> TensorDictBase | None:
+    def collect(
+        self, on_step: StepCallback | None = None, should_stop: Callable[[], bool] | None = None
+    ) -> TensorDictBase | None:
         """Run the (rest of the) rollout; returns the ``[N, T]`` TensorDict, or ``None`` when ``should_stop()``
         became true after a step (the steps so far are kept: the next call, or a checkpoint, continues them).
 

@@ -15,6 +15,7 @@ from torchrl.envs import EnvBase, TransformedEnv
 from torchrl.objectives import LossModule
 
 from .checkpoint import CHECKPOINT_VERSION, CheckpointError, load_checkpoint, rng_state, save_checkpoint, set_rng_state
+from .config import effective_minibatch_size
 from .hooks import TrainerHook
 from .metrics import EpisodeStatsWindow
 from .rollout import Rollout, base_env
@@ -111,14 +112,8 @@ class Trainer:
         if int(epochs) < 1:
             raise ValueError(f"loss.epochs must be >= 1, got {epochs}")
         self.epochs = int(epochs)
-        mb = min(int(minibatch_size), self.frames_per_batch)
-        if mb < 1 or self.frames_per_batch % mb:
-            raise ValueError(
-                f"loss.minibatch_size={minibatch_size} must divide the batch num_envs*horizon = "
-                f"{self.num_envs}*{self.horizon} = {self.frames_per_batch} (or be >= it: one minibatch)"
-            )
-        self.minibatch_size = mb
-        self.num_minibatches = self.frames_per_batch // mb
+        self.minibatch_size = effective_minibatch_size(self.num_envs, self.horizon, minibatch_size)
+        self.num_minibatches = self.frames_per_batch // self.minibatch_size
         self.updates_per_iteration = self.epochs * self.num_minibatches
         if int(total_iterations) < 1:
             raise ValueError(f"max_iterations must be >= 1, got {total_iterations}")
@@ -239,6 +234,9 @@ class Trainer:
                     if metrics is None:
                         break
                     history.append(metrics)
+            except BaseException as error:
+                self._call("on_error", error)
+                raise
             finally:
                 self._stop = None
             self._call("on_train_end", stop.requested)
@@ -259,8 +257,8 @@ class Trainer:
         """Everything needed to continue the run bit for bit (on the same device type): counters, the loss
         (parameters, value-estimator statistics), the gradient method, the optimizer (incl. its learning rate),
         the env (``base_env.state_dict()``: physics, episode clocks, its generator) and the state of its
-        transforms (observation statistics), the rollout's carried state (and the steps of an interrupted rollout), the success window, the hooks, and
-        the Python/NumPy/torch/CUDA generators."""
+        transforms (observation statistics), the rollout's carried state (and the steps of an interrupted
+        rollout), the success window, the hooks, and the Python/NumPy/torch/CUDA generators."""
         return {
             "version": CHECKPOINT_VERSION,
             "config": None if self.config is None else OmegaConf.to_container(self.config, resolve=True),

@@ -22,7 +22,9 @@ class AdaptiveLR(TrainerHook):
 
     name = "adaptive_lr"
 
-    def __init__(self, kl_threshold: float = 0.008, min_lr: float = 1e-6, max_lr: float = 1e-2, factor: float = 1.5) -> None:
+    def __init__(
+        self, kl_threshold: float = 0.008, min_lr: float = 1e-6, max_lr: float = 1e-2, factor: float = 1.5
+    ) -> None:
         if not (kl_threshold > 0 and 0 < min_lr <= max_lr and factor > 1):
             raise ValueError(f"AdaptiveLR needs kl_threshold > 0, 0 < min_lr <= max_lr, factor > 1; got "
                              f"{kl_threshold}, {min_lr}, {max_lr}, {factor}")

@@ -22,7 +22,9 @@ class TrainerHook:
       two must only do sync-free tensor work (no ``.item()``, no Python branch on a tensor);
     * :meth:`on_iteration_end` -- after each iteration with its host-side metrics (a dict of floats the hook
       may extend or edit; later hooks see the edits);
-    * :meth:`on_train_end` -- after the loop (``stopped``: a stop request ended it early).
+    * :meth:`on_train_end` -- after the loop (``stopped``: a stop request ended it early);
+    * :meth:`on_error` -- instead of :meth:`on_train_end` when the loop raised (release resources; the state
+      may be mid-update: no checkpoint).
 
     :meth:`state_dict` / :meth:`load_state_dict` are saved in and restored from checkpoints under ``name``.
     """
@@ -50,6 +52,9 @@ class TrainerHook:
 
     def on_train_end(self, trainer: Any, stopped: bool) -> None:
         """After the loop; ``stopped``: ended by a stop request (SIGINT/SIGTERM) rather than by its length."""
+
+    def on_error(self, trainer: Any, error: BaseException) -> None:
+        """The loop raised ``error`` (it is re-raised after the hooks ran)."""
 
     def state_dict(self) -> dict[str, Any]:
         return {}

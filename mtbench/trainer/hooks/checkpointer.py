@@ -25,7 +25,9 @@ class Checkpointer(TrainerHook):
 
     name = "checkpointer"
 
-    def __init__(self, directory: str | os.PathLike[str], every: int = 0, keep_last: int = 0, save_final: bool = True) -> None:
+    def __init__(
+        self, directory: str | os.PathLike[str], every: int = 0, keep_last: int = 0, save_final: bool = True
+    ) -> None:
         if int(every) < 0 or int(keep_last) < 0:
             raise ValueError(f"checkpoint.every and checkpoint.keep_last must be >= 0; got {every}, {keep_last}")
         self.directory = Path(directory)

@@ -24,7 +24,9 @@ class ProgressHook(TrainerHook):
 
     name = "progress"
 
-    def __init__(self, mode: str = "auto", every: int = 1, inner_every_s: float = 10.0, stream: TextIO | None = None) -> None:
+    def __init__(
+        self, mode: str = "auto", every: int = 1, inner_every_s: float = 10.0, stream: TextIO | None = None
+    ) -> None:
         self.mode, self.every, self.inner_every_s, self.stream = mode, int(every), float(inner_every_s), stream
         self.display: ProgressDisplay | None = None
         self._t0 = self._last = 0.0
@@ -59,6 +61,9 @@ class ProgressHook(TrainerHook):
         if self.display is not None:
             self.display.close()
             self.display = None
+
+    def on_error(self, trainer: Any, error: BaseException) -> None:
+        self.on_train_end(trainer, stopped=False)
 
 
 __all__ = ["ProgressHook"]
