@@ -155,6 +155,8 @@ def test_resume_continues_with_identical_counters_parameters_and_metrics(tmp_pat
     for key, value in _params(full).items():
         assert torch.equal(value, _params(resumed)[key]), key
     assert torch.equal(observation_norm(resumed.env).stats.mean, observation_norm(full.env).stats.mean)
+    saved = load_checkpoint(tmp_path / "ckpt" / "ckpt_000002.pt")
+    assert torch.equal(saved["obs_norm"]["stats.count"], saved["transforms"][0]["stats.count"])
     assert torch.equal(resumed.loss.value_estimator.value_norm.var, full.loss.value_estimator.value_norm.var)
 
 
@@ -262,7 +264,8 @@ def test_checkpoint_file_is_atomic_versioned_and_checksummed(tmp_path: Path) -> 
 def test_non_finite_updates_are_skipped_and_counted(tmp_path: Path) -> None:
     # the reward of env 0 is NaN at step 10, i.e. in the second iteration (horizon 8); one minibatch per epoch:
     # every update of that iteration sees the NaN rows
-    trainer = build_trainer(_cfg(tmp_path, "max_iterations=3", "loss.minibatch_size=96"), env=_env(nan_reward_at_step=10))
+    trainer = build_trainer(_cfg(tmp_path, "max_iterations=3", "loss.minibatch_size=96"),
+                            env=_env(nan_reward_at_step=10))
     trainer.train_iteration()
     p1, opt1 = _params(trainer), trainer.optimizer.state_dict()["state"][0]["step"].clone()
     with pytest.warns(RuntimeWarning, match="skipped"):
@@ -315,7 +318,9 @@ def test_grpo_trainer_runs(tmp_path: Path) -> None:
     assert trainer.frames == 2 * 72 and math.isfinite(history[-1]["loss/objective"])
 
 
-def test_progress_inside_long_iterations_and_cpu_size_warning(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_progress_inside_long_iterations_and_cpu_size_warning(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     trainer = build_trainer(_cfg(tmp_path, "max_iterations=1", "logging.progress=line"), env=_env())
     trainer.get_hook(ProgressHook).inner_every_s = 1e-9  # every env step counts as "long" here
     trainer.train()
@@ -349,7 +354,8 @@ def test_cpu_default_overrides_and_resume_directory() -> None:
     assert (cfg.env.num_envs * cfg.loss.horizon) % cfg.loss.minibatch_size == 0
     with initialize_config_dir(config_dir=CONF, version_base="1.3"):
         grpo = compose("config", overrides=["env=mt10_rand", "loss=grpo"])
-    assert (grpo.env.num_envs, grpo.loss.horizon, grpo.loss.minibatch_size, grpo.max_iterations) == (4096, 150, 38400, 1908)
+    sizes = (grpo.env.num_envs, grpo.loss.horizon, grpo.loss.minibatch_size, grpo.max_iterations)
+    assert sizes == (4096, 150, 38400, 1908)
 
 
 def test_run_front_door_logs_to_mcap_and_resume_appends_in_its_own_directories(
@@ -364,7 +370,8 @@ def test_run_front_door_logs_to_mcap_and_resume_appends_in_its_own_directories(
     out = capsys.readouterr().out
     assert "Per-task success" in out and "task2" in out and trainer.iteration == 2
     exp_name = trainer.config.logging.exp_name
-    assert trainer.config.logging.log_dir == str(tmp_path / "runs") and (tmp_path / "checkpoints" / "final.pt").is_file()
+    assert trainer.config.logging.log_dir == str(tmp_path / "runs")
+    assert (tmp_path / "checkpoints" / "final.pt").is_file()
     other = tmp_path / "elsewhere"
     other.mkdir()
     monkeypatch.chdir(other)  # a resume from another directory still continues the run's log and checkpoints

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 import re
 from typing import Any, Sequence
 
@@ -27,6 +28,10 @@ def split_envs(num_envs: int, num_tasks: int) -> list[int]:
                          "every task needs at least one env")
     base, rem = divmod(num_envs, num_tasks)
     return [base + 1] * rem + [base] * (num_tasks - rem)
+
+
+def _positive_int(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool) and value >= 1
 
 
 def setting_names() -> list[str]:
@@ -70,9 +75,6 @@ def make_env(
         unknown = [t for t in tasks if t not in ALL_TASK_NAMES]
         if unknown:
             raise ValueError(f"unknown task names {unknown}; valid choices: {sorted(ALL_TASK_NAMES)}")
-    def _positive_int(value: Any) -> bool:
-        return isinstance(value, int) and not isinstance(value, bool) and value >= 1
-
     if num_envs is None:
         counts = [1] * len(tasks)
     elif _positive_int(num_envs):
@@ -83,7 +85,7 @@ def make_env(
         ):
             raise ValueError(f"num_envs must be a positive integer (split over the tasks) or a list of one positive "
                              f"integer per task; got {num_envs!r}")
-        counts = list(num_envs)
+        counts = [int(c) for c in num_envs]
         if len(counts) != len(tasks):
             raise ValueError(f"{len(counts)} env counts given for {len(tasks)} tasks {tasks}; give one per task")
     return MetaWorldEnv(tasks, counts, device=device, **overrides)

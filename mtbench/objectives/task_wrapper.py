@@ -91,13 +91,13 @@ class TaskGradientWrapper(LossModule):
         diagnostics_every: compute the pairwise cosine similarities of the per-task actor and critic
             gradients every this many updates (0 = never); see :meth:`backward`.
         critic_keys: the loss terms that belong to the critic.
+        task_loss_scale: factor applied to the per-task manipulated losses before the method (MTBench's
+            PCGrad/CAGrad per-task critic losses omit rl_games' ``0.5 * critic_coef``: use ``1 / (0.5 *
+            critic_coef)`` to reproduce their gradient scale exactly).
 
     The task index is read from the batch entry ``task_id`` (int64, batch-shaped, optional trailing 1): the
     inner loss's declared ``tensor_keys.task_id`` when it has one (mtbench's losses), else this wrapper's own
     key; ``wrapper.set_keys(task_id=...)`` renames both, so the wrapper and its loss never disagree.
-        task_loss_scale: factor applied to the per-task manipulated losses before the method (MTBench's
-            PCGrad/CAGrad per-task critic losses omit rl_games' ``0.5 * critic_coef``: use ``1 / (0.5 *
-            critic_coef)`` to reproduce their gradient scale exactly).
     """
 
     @dataclass

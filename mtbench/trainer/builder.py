@@ -24,26 +24,17 @@ from .config import (
     total_iterations,
     warn_if_cpu_run_too_big,
 )
+from .env_factory import make_env_from_cfg
 from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
 from .rollout import base_env
-from .trainer import Trainer
+from .trainer import Trainer, observation_norm
 
 
 def build_env(cfg: DictConfig, device: torch.device) -> EnvBase:
     """``mtbench.envs.make_env(env.name, num_envs=env.num_envs, device=..., seed=seed, **env.overrides)``; warns
     first when the run is far too big for the CPU."""
-    from ..envs import make_env
-
-    env_cfg = cfg.env
-    warn_if_cpu_run_too_big(device, int(env_cfg.num_envs), int(cfg.loss.horizon))
-    raw = env_cfg.get("overrides")
-    overrides: dict[str, Any] = {}
-    if raw is not None:
-        overrides = dict(OmegaConf.to_container(raw, resolve=True))  # type: ignore[arg-type]
-    name = env_cfg["name"]
-    if OmegaConf.is_list(name) or isinstance(name, (list, tuple)):
-        name = list(name)
-    return make_env(name, num_envs=int(env_cfg.num_envs), device=device, seed=int(cfg.seed), **overrides)
+    warn_if_cpu_run_too_big(device, int(cfg.env.num_envs), int(cfg.loss.horizon))
+    return make_env_from_cfg(cfg.env, device, int(cfg.seed))
 
 
 def add_observation_norm(env: EnvBase, loss_cfg: Mapping[str, Any]) -> EnvBase:
@@ -53,16 +44,6 @@ def add_observation_norm(env: EnvBase, loss_cfg: Mapping[str, Any]) -> EnvBase:
     base = base_env(env)
     norm = PerTaskObservationNorm(base.num_tasks, state_dim=getattr(base, "state_dim", None), device=env.device)
     return TransformedEnv(env, norm)
-
-
-def observation_norm(env: EnvBase) -> PerTaskObservationNorm | None:
-    """The ``PerTaskObservationNorm`` transform of ``env`` (``None`` if it has none)."""
-    while isinstance(env, TransformedEnv):
-        for transform in [env.transform, *getattr(env.transform, "transforms", [])]:
-            if isinstance(transform, PerTaskObservationNorm):
-                return transform
-        env = env.base_env
-    return None
 
 
 def build_networks(cfg: DictConfig, env: EnvBase, device: torch.device) -> tuple[nn.Module, nn.Module | None]:

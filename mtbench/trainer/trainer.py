@@ -14,8 +14,10 @@ from torch import nn
 from torchrl.envs import EnvBase, TransformedEnv
 from torchrl.objectives import LossModule
 
+from ..transforms import PerTaskObservationNorm
 from .checkpoint import CHECKPOINT_VERSION, CheckpointError, load_checkpoint, rng_state, save_checkpoint, set_rng_state
 from .config import effective_minibatch_size
+from .env_factory import make_env_from_cfg  # noqa: F401  (kept importable here: mtbench.evaluation uses it)
 from .hooks import TrainerHook
 from .metrics import EpisodeStatsWindow
 from .rollout import Rollout, base_env
@@ -30,6 +32,15 @@ def _transformed_levels(env: EnvBase) -> list[TransformedEnv]:
         levels.append(env)
         env = env.base_env
     return levels
+
+
+def observation_norm(env: EnvBase) -> PerTaskObservationNorm | None:
+    """The env's ``PerTaskObservationNorm`` transform, if any."""
+    for level in _transformed_levels(env):
+        for transform in [level.transform, *getattr(level.transform, "transforms", [])]:
+            if isinstance(transform, PerTaskObservationNorm):
+                return transform
+    return None
 
 
 # keys whose mismatch between a checkpoint and the current config makes a resume meaningless
@@ -275,6 +286,9 @@ class Trainer:
             "optimizer": self.optimizer.state_dict(),
             "env": self.base_env.state_dict(),
             "transforms": [level.transform.state_dict() for level in _transformed_levels(self.env)],
+            # the observation statistics again under their own name, for tools that rebuild the policy
+            # (mtbench.evaluation); the same tensors: saved once
+            "obs_norm": None if (norm := observation_norm(self.env)) is None else norm.state_dict(),
             "rollout": self.rollout.state_dict(),
             "window": self.window.state_dict(),
             "hooks": {h.name: h.state_dict() for h in self.hooks},
@@ -338,4 +352,4 @@ class Trainer:
         set_rng_state(state["rng"])
 
 
-__all__ = ["RESUME_KEYS", "Trainer"]
+__all__ = ["RESUME_KEYS", "Trainer", "make_env_from_cfg", "observation_norm"]
