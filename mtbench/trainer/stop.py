@@ -45,8 +45,8 @@ class StopRequest:
             raise KeyboardInterrupt
         self.request(signum)
         name = signal.Signals(signum).name
-        print(f"\n{name}: stopping after the current env step and writing a checkpoint "
-              "(press Ctrl-C again to abort without one)", file=self.stream or sys.stderr, flush=True)
+        print(f"\n{name}: stopping after the current env step (or, during an update, after it) and writing a "
+              "checkpoint; press Ctrl-C again to abort without one", file=self.stream or sys.stderr, flush=True)
 
     def restore(self) -> None:
         """Put the previous signal handlers back."""
