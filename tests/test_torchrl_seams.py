@@ -97,6 +97,7 @@ def test_mt_ppo_with_the_multitask_features_off_equals_clip_ppo_loss() -> None:
                         loss_critic_type="l2", clip_value=0.2, normalize_advantage=False)
     stock.make_value_estimator(GAE(gamma=0.99, lmbda=0.95, value_network=critic2, auto_reset_env=True))
     data = _rollout(actor)
+    assert isinstance(mt.value_estimator, PerTaskGAE) and mt.value_estimator.value_norm is None
     with torch.no_grad():
         ours = mt.value_estimator(data.clone(False))
         theirs = stock.value_estimator(data.clone(False))

@@ -15,8 +15,15 @@ import torch
 from hydra import compose, initialize_config_dir
 
 from envs_for_tests import SyntheticMTEnv
-from mtbench.trainer import Checkpointer, NonFiniteGuard, ProgressHook, Trainer, TrainerHook, build_trainer
-from mtbench.trainer.builder import observation_norm
+from mtbench.trainer import (
+    Checkpointer,
+    NonFiniteGuard,
+    ProgressHook,
+    Trainer,
+    TrainerHook,
+    build_trainer,
+    observation_norm,
+)
 from mtbench.trainer.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 
 CONF = str(Path(__file__).resolve().parents[1] / "conf")

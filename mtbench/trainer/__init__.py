@@ -15,14 +15,13 @@ from .builder import (
     build_networks,
     build_optimizer,
     build_trainer,
-    observation_norm,
 )
 from .config import LOSSES, check_config, resolve_device
 from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
 from .metrics import EpisodeStatsWindow
 from .rollout import Rollout
 from .stop import StopRequest
-from .trainer import Trainer
+from .trainer import Trainer, observation_norm
 from .update import MinibatchUpdate
 
 __all__ = [

@@ -27,7 +27,7 @@ from .config import (
 from .env_factory import make_env_from_cfg
 from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
 from .rollout import base_env
-from .trainer import Trainer, observation_norm
+from .trainer import Trainer
 
 
 def build_env(cfg: DictConfig, device: torch.device) -> EnvBase:
@@ -221,6 +221,5 @@ __all__ = [
     "build_trainer",
     "compile_networks",
     "load_resume_checkpoint",
-    "observation_norm",
     "resolve_graph_update",
 ]

@@ -24,6 +24,7 @@ from .rollout import Rollout, base_env
 from .stop import StopRequest
 from .update import MinibatchUpdate
 
+
 def _transformed_levels(env: EnvBase) -> list[TransformedEnv]:
     """The ``TransformedEnv`` wrappers of ``env``, outermost first (their transforms hold state, e.g. the
     observation statistics; ``TransformedEnv.state_dict`` holds only its own transform's)."""
@@ -135,7 +136,7 @@ class Trainer:
             self.add_hook(hook)
         device = next(iter(self.optimizer.param_groups[0]["params"])).device
         self.updater = MinibatchUpdate(
-            self.update_module, optimizer, max_grad_norm=max_grad_norm, call_hooks=self._call_update_hooks,
+            self.update_module, optimizer, max_grad_norm=max_grad_norm, call_hooks=self._call,
             graph=cudagraph_update, device=device,
         )
         self.window = EpisodeStatsWindow(self.task_names, success_window)
@@ -165,9 +166,6 @@ class Trainer:
     def _call(self, point: str, *args: Any) -> None:
         for hook in self.hooks:
             getattr(hook, point)(self, *args)
-
-    def _call_update_hooks(self, point: str, metrics: TensorDictBase) -> None:
-        self._call(point, metrics)
 
     # ------------------------------------------------------------------ one iteration
     def collect(self) -> tuple[TensorDictBase | None, TensorDictBase | None]:
