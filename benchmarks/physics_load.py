@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from mtbench.sim import launch_all  # noqa: E402
-from mtbench.trainer.trainer import Trainer  # noqa: E402
+from mtbench.trainer import build_trainer  # noqa: E402
 
 
 def _timed_ms(fn, repeats: int = 5) -> float:
@@ -71,7 +71,7 @@ def main() -> None:
         cfg = compose("config", overrides=[
             f"env.name={args.env}", f"env.num_envs={args.num_envs}", "logging.logger=none", "logging.progress=none",
             "checkpoint.every=0", "checkpoint.save_final=false", f"checkpoint.dir={tempfile.mkdtemp()}"])
-    trainer = Trainer(cfg)
+    trainer = build_trainer(cfg)
     env = trainer.base_env
     print(f"device: {torch.cuda.get_device_name()}; date {time.strftime('%Y-%m-%d')}; {args.env} x {args.num_envs}")
     for i in range(args.iters):
@@ -80,7 +80,7 @@ def main() -> None:
         data, _ = trainer.collect()
         torch.cuda.synchronize()
         t1 = time.perf_counter()
-        trainer.update(data)
+        trainer.update(trainer.advantage(data))
         torch.cuda.synchronize()
         t2 = time.perf_counter()
         if i % args.every and i != args.iters - 1:
@@ -94,7 +94,7 @@ def main() -> None:
               f"Newton iterations {niter:.2f} | env step {step_ms:.1f} ms", flush=True)
     if args.per_block:
         per_block_report(env)
-    trainer.close()
+    trainer.env.close()
 
 
 if __name__ == "__main__":

@@ -4,8 +4,8 @@
     python benchmarks/train_throughput.py --env mt10_rand --num-envs 24576 --device cuda --iters 10 --compile --cudagraphs
     python benchmarks/train_throughput.py --env reach --num-envs 64 --device cpu --iters 3 --minibatch-size 1024
 
-The run uses the real training stack (conf/ + ``mtbench.trainer.Trainer``: Collector over the native-autoreset
-env, GAE, 5 epochs of minibatch updates). The first ``--warmup`` iterations (env graph capture, compilation)
+The run uses the real training stack (conf/ + ``mtbench.trainer.build_trainer``: the trainer's rollout over the
+native-autoreset env, the loss's value estimator, 5 epochs of minibatch updates). The first ``--warmup`` iterations (env graph capture, compilation)
 are not timed. Every phase is closed with a device synchronisation so its time is real.
 """
 
@@ -24,7 +24,7 @@ from hydra import compose, initialize_config_dir
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from mtbench.trainer.trainer import Trainer, resolve_device  # noqa: E402
+from mtbench.trainer import build_trainer, resolve_device  # noqa: E402
 
 
 def _sync(device: torch.device) -> None:
@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> None:
         cfg = compose("config", overrides=overrides)
 
     t = time.perf_counter()
-    trainer = Trainer(cfg)
+    trainer = build_trainer(cfg)
     _sync(device)
     print(
         f"setup {time.perf_counter() - t:.1f}s | {args.loss} env={args.env} envs={trainer.num_envs} tasks={trainer.num_tasks} "
@@ -100,8 +100,8 @@ def main(argv: list[str] | None = None) -> None:
         data, stats = trainer.collect()
         _sync(device)
         t1 = time.perf_counter()
-        means = trainer.update(data)
-        skipped = float(means["skipped"])  # host read = sync
+        means = trainer.update(trainer.advantage(data))
+        skipped = float(means["skipped"]) * trainer.updates_per_iteration  # host read = sync
         _sync(device)
         t2 = time.perf_counter()
         tag = "warmup" if i < args.warmup else "timed "
@@ -113,7 +113,7 @@ def main(argv: list[str] | None = None) -> None:
         if i >= args.warmup:
             collect_s.append(t1 - t0)
             update_s.append(t2 - t1)
-    trainer.close()
+    trainer.env.close()
     if not collect_s:
         return
     c, u = statistics.median(collect_s), statistics.median(update_s)

@@ -28,6 +28,8 @@ from mtbench.logging.reader import find_segments, read_scalars
 __all__ = ["loss_groups", "main", "plot_run", "scalar_summary", "task_table"]
 
 Series = list[tuple[int, float]]
+# words users type as a subcommand (the CLI has none: the run path comes first)
+_NOT_SUBCOMMANDS = ("summary", "plot", "plots")
 
 
 def _finite(values: Sequence[float]) -> list[float]:
@@ -191,6 +193,11 @@ def plot_run(scalars: dict[str, Series], out_dir: Path, *, title: str = "") -> l
 
 def main(argv: Sequence[str] | None = None) -> int:
     """CLI entry point (``python -m mtbench.logs``). Returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] in _NOT_SUBCOMMANDS and not Path(argv[0]).exists():
+        print(f"error: python -m mtbench.logs has no {argv[0]!r} subcommand; usage: python -m mtbench.logs RUN.mcap "
+              "[--out DIR] [--last N] (prints the summary tables and writes the plots)", file=sys.stderr)
+        return 2
     parser = argparse.ArgumentParser(prog="python -m mtbench.logs", description=__doc__.split("\n\n")[0])
     parser.add_argument("run", type=Path, help="a run's .mcap file (its segments are merged) or its directory")
     parser.add_argument("--out", type=Path, default=None,

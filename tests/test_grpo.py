@@ -8,6 +8,7 @@ from tensordict import TensorDict
 from torchrl.modules import ProbabilisticActor
 
 from mtbench.objectives.grpo import MTGRPOLoss, discounted_reward_to_go, grpo_advantages
+from mtbench.objectives.per_task_returns import PerTaskMCAdvantage
 from mtbench.trainer.actor_critic import make_actor
 
 
@@ -66,7 +67,8 @@ def test_grpo_loss_uses_batch_advantages_without_minibatch_renormalisation() -> 
     actor = make_actor(None, obs_dim=5, action_dim=2, num_tasks=2)
     loss = MTGRPOLoss(actor, num_tasks=2, reduction="none")
     data = _rollout_td(actor)
-    prepared = loss.compute_advantage(data)
+    assert isinstance(loss.value_estimator, PerTaskMCAdvantage)
+    prepared = loss.value_estimator(data.clone(False))
     adv, _ = grpo_advantages(data["next", "reward"], data["next", "done"], data["task_id"], 2)
     torch.testing.assert_close(prepared["advantage"], adv)
     flat = prepared.reshape(-1)

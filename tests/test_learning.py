@@ -15,7 +15,7 @@ import pytest
 import torch
 from hydra import compose, initialize_config_dir
 
-from mtbench.trainer.trainer import Trainer
+from mtbench.trainer import build_trainer
 
 CONF = str(Path(__file__).resolve().parents[1] / "conf")
 
@@ -42,7 +42,7 @@ def test_short_seeded_cpu_training_learns_reach(tmp_path: Path) -> None:
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # small batches: one thread is much faster on a 2-core machine
     try:
-        trainer = Trainer(cfg)
+        trainer = build_trainer(cfg)
         history = trainer.train()
     finally:
         torch.set_num_threads(threads)

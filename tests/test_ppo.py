@@ -14,6 +14,7 @@ from torch import nn
 from torchrl.modules import IndependentNormal, ProbabilisticActor
 
 from mtbench.objectives.mt_utils import per_task_standardize
+from mtbench.objectives.per_task_gae import PerTaskGAE
 from mtbench.objectives.ppo import MTPPOLoss
 from mtbench.trainer.actor_critic import GaussianPolicyHead
 
@@ -69,7 +70,7 @@ def _reference_gae(r, v, v_next, done, trunc):
     return adv
 
 
-def test_compute_advantage_value_normalisation_against_hand_computation() -> None:
+def test_per_task_gae_value_normalisation_against_hand_computation() -> None:
     # 2 envs (task 0, task 1), 3 steps; obs = [v_norm, 0, one-hot(2)]; the critic reads obs[..., 0]
     v_norm = np.array([[0.5, -1.0, 7.0], [2.0, 0.0, -0.5]])  # 7.0 exercises the +-5 clamp of rl_games
     v_last = np.array([1.5, 3.0])
@@ -99,11 +100,15 @@ def test_compute_advantage_value_normalisation_against_hand_computation() -> Non
     )
     loss = MTPPOLoss(_actor(4, 2), _feature0_critic(4), num_tasks=2, gamma=GAMMA, lmbda=LMBDA)
     prior_count, prior_mean, prior_var = np.array([4.0, 9.0]), np.array([1.0, -2.0]), np.array([4.0, 0.25])
-    loss.value_norm.count.copy_(torch.tensor(prior_count))
-    loss.value_norm.mean.copy_(torch.tensor(prior_mean)[:, None])
-    loss.value_norm.var.copy_(torch.tensor(prior_var)[:, None])
+    value_norm = loss.value_estimator.value_norm  # the statistics live with the estimator (loss state_dict)
+    assert isinstance(loss.value_estimator, PerTaskGAE)
+    value_norm.count.copy_(torch.tensor(prior_count))
+    value_norm.mean.copy_(torch.tensor(prior_mean)[:, None])
+    value_norm.var.copy_(torch.tensor(prior_var)[:, None])
+    assert torch.equal(loss.state_dict()["_value_estimator.value_norm.count"], torch.tensor(prior_count))
 
-    out = loss.compute_advantage(data)
+    with torch.no_grad():
+        out = loss.value_estimator(data)
 
     eps = 1e-5
     std = np.sqrt(prior_var + eps)[task][:, None]
@@ -126,15 +131,15 @@ def test_compute_advantage_value_normalisation_against_hand_computation() -> Non
         delta = xb.mean() - prior_mean[k]
         new_mean[k] = prior_mean[k] + delta * nb / n
         new_var[k] = (prior_var[k] * na + xb.var() * nb + delta**2 * na * nb / n) / n
-    np.testing.assert_allclose(loss.value_norm.mean[:, 0].numpy(), new_mean, rtol=1e-6)
-    np.testing.assert_allclose(loss.value_norm.var[:, 0].numpy(), new_var, rtol=1e-6)
-    assert loss.value_norm.count.tolist() == [7.0, 12.0]
+    np.testing.assert_allclose(value_norm.mean[:, 0].numpy(), new_mean, rtol=1e-6)
+    np.testing.assert_allclose(value_norm.var[:, 0].numpy(), new_var, rtol=1e-6)
+    assert value_norm.count.tolist() == [7.0, 12.0]
     new_std = np.sqrt(new_var + eps)[task][:, None]
     exp_value = np.clip((v_dn - new_mean[task][:, None]) / new_std, -5, 5)
     exp_target = np.clip((ret - new_mean[task][:, None]) / new_std, -5, 5)
     np.testing.assert_allclose(out["state_value"][..., 0].numpy(), exp_value, rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(out["value_target"][..., 0].numpy(), exp_target, rtol=1e-5, atol=1e-5)
-    assert "advantage" not in data.keys()  # input left untouched
+    assert out is data  # TorchRL estimators write into the rollout they get
 
 
 def test_truncated_last_step_uses_current_value_and_ignores_nan_next_obs() -> None:
@@ -156,7 +161,7 @@ def test_truncated_last_step_uses_current_value_and_ignores_nan_next_obs() -> No
         batch_size=[1, 2],
     )
     loss = MTPPOLoss(_actor(3, 1), _feature0_critic(3), num_tasks=1, normalize_value=False, gamma=GAMMA, lmbda=LMBDA)
-    out = loss.compute_advantage(data)
+    out = loss.value_estimator(data)
     a1 = 2.0 + GAMMA * 3.0 - 3.0
     a0 = 1.0 + GAMMA * 3.0 - 2.0 + GAMMA * LMBDA * a1
     torch.testing.assert_close(out["advantage"].flatten(), torch.tensor([a0, a1]))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numbers
+import re
 from typing import Any, Sequence
 
 import torch
@@ -28,6 +30,10 @@ def split_envs(num_envs: int, num_tasks: int) -> list[int]:
                          "every task needs at least one env")
     base, rem = divmod(num_envs, num_tasks)
     return [base + 1] * rem + [base] * (num_tasks - rem)
+
+
+def _positive_int(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool) and value >= 1
 
 
 def setting_names() -> list[str]:
@@ -65,6 +71,8 @@ def make_env(
     """
     if device is None:
         device = "cuda" if torch.cuda.is_available() else "cpu"
+    if not re.fullmatch(r"cpu|cuda(:\d+)?", str(device)):
+        raise ValueError(f"device={str(device)!r} is not supported; valid choices: 'cpu', 'cuda', 'cuda:<index>'")
     if _is_parkour(name):
         from .parkour.settings import make_parkour_env
 
@@ -87,9 +95,14 @@ def make_env(
             raise ValueError(f"unknown task names {unknown}; valid choices: {sorted(ALL_TASK_NAMES)}")
     if num_envs is None:
         counts = [1] * len(tasks)
-    elif isinstance(num_envs, int):
+    elif _positive_int(num_envs):
         counts = split_envs(num_envs, len(tasks))
     else:
+        if isinstance(num_envs, (str, bytes)) or not isinstance(num_envs, Sequence) or not all(
+            _positive_int(c) for c in num_envs
+        ):
+            raise ValueError(f"num_envs must be a positive integer (split over the tasks) or a list of one positive "
+                             f"integer per task; got {num_envs!r}")
         counts = [int(c) for c in num_envs]
         if len(counts) != len(tasks):
             raise ValueError(f"{len(counts)} env counts given for {len(tasks)} tasks {tasks}; give one per task")

@@ -104,7 +104,13 @@ def iter_messages(path: PathLike, topics: Iterable[str] | None = None) -> Iterat
                 continue
             if wanted is not None and channel.topic not in wanted:
                 continue
-            yield channel.topic, record.log_time, json.loads(record.data)
+            try:
+                payload = json.loads(record.data)
+            except ValueError as err:  # JSONDecodeError, UnicodeDecodeError
+                raise ValueError(
+                    f"{path}: damaged MCAP file: a message on {channel.topic} is not valid JSON ({err})"
+                ) from err
+            yield channel.topic, record.log_time, payload
 
 
 def read_run_metadata(path: PathLike) -> dict[str, str] | None:

@@ -1,7 +1,9 @@
 """Multi-task losses and gradient-manipulation wrappers."""
 
 from .gradients import compute_gradients, total_loss
-from .grpo import MTGRPOLoss, discounted_reward_to_go, grpo_advantages
+from .grpo import MTGRPOLoss
+from .per_task_gae import PerTaskGAE
+from .per_task_returns import PerTaskMCAdvantage, discounted_reward_to_go, grpo_advantages
 from .ppo import MTClipPPOBase, MTPPOLoss
 
 # gradient manipulation (issue #5)
@@ -19,6 +21,8 @@ __all__ = [
     "MTClipPPOBase",
     "MTGRPOLoss",
     "MTPPOLoss",
+    "PerTaskGAE",
+    "PerTaskMCAdvantage",
     "compute_gradients",
     "discounted_reward_to_go",
     "grpo_advantages",

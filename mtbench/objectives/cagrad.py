@@ -139,7 +139,7 @@ class CAGrad(TaskGradientWrapper):
     """Conflict-averse gradient descent on a parameter group of a TorchRL loss.
 
     Args:
-        loss_module, num_tasks, params, diagnostics_every, task_key, critic_keys, task_loss_scale:
+        loss_module, num_tasks, params, diagnostics_every, critic_keys, task_loss_scale:
             see :class:`~mtbench.objectives.task_wrapper.TaskGradientWrapper`.
         c: radius of the ball around the mean gradient (MTBench: 0.4).
         rescale: 1 -> ``d / (1 + c^2)`` (MTBench, default), 2 -> ``d / (1 + c)``, 0 -> ``d``.

@@ -28,7 +28,7 @@ class GradientDiagnostics(TaskGradientWrapper):
         loss_module: a TorchRL loss with per-sample ``loss_*`` terms under ``reduction="none"`` (set here).
         num_tasks: K.
         every: measurement period in updates (>= 1).
-        task_key, critic_keys: see :class:`~mtbench.objectives.task_wrapper.TaskGradientWrapper`.
+        critic_keys: see :class:`~mtbench.objectives.task_wrapper.TaskGradientWrapper`.
     """
 
     needs_task_gradients = False
@@ -39,7 +39,6 @@ class GradientDiagnostics(TaskGradientWrapper):
         num_tasks: int,
         *,
         every: int = 100,
-        task_key: str = "task_id",
         critic_keys: Sequence[str] = ("loss_critic",),
     ) -> None:
         if int(every) < 1:
@@ -49,7 +48,6 @@ class GradientDiagnostics(TaskGradientWrapper):
             num_tasks,
             params="all",
             diagnostics_every=int(every),
-            task_key=task_key,
             critic_keys=critic_keys,
         )
 

@@ -57,7 +57,7 @@ class FAMO(TaskGradientWrapper):
     the device and are saved in ``state_dict``.
 
     Args:
-        loss_module, num_tasks, params, diagnostics_every, task_key, critic_keys, task_loss_scale:
+        loss_module, num_tasks, params, diagnostics_every, critic_keys, task_loss_scale:
             see :class:`~mtbench.objectives.task_wrapper.TaskGradientWrapper`.
         gamma: weight decay of the logits (MTBench Meta-World: 1e-3).
         w_lr: Adam learning rate of the logits (1e-3).

@@ -23,7 +23,7 @@ def make_gradient_method(name: str, loss_module: nn.Module, num_tasks: int, **kw
     """Wrap ``loss_module`` with the gradient method ``name`` (``none``, ``pcgrad``, ``cagrad``, ``famo``).
 
     ``kwargs`` are the method's arguments (the ``conf/grad/<name>.yaml`` entries other than ``name``):
-    ``params``, ``diagnostics_every``, ``task_key``, ``critic_keys``, ``task_loss_scale`` for every wrapper,
+    ``params``, ``diagnostics_every``, ``critic_keys``, ``task_loss_scale`` for every wrapper,
     plus ``reduction``/``seed`` (pcgrad), ``c``/``rescale``/``scale_by_num_tasks``/``solver_iters`` (cagrad),
     ``gamma``/``w_lr``/``epsilon``/``norm_w_grad``/``exp_losses`` (famo).
 
@@ -38,7 +38,7 @@ def make_gradient_method(name: str, loss_module: nn.Module, num_tasks: int, **kw
     if name == "none":
         every = int(kwargs.pop("diagnostics_every", 0) or 0)
         kwargs.pop("params", None)  # nothing is manipulated
-        allowed = {"task_key", "critic_keys"}
+        allowed = {"critic_keys"}
         unknown = sorted(set(kwargs) - allowed)
         if unknown:
             valid = sorted(allowed | {"params", "diagnostics_every"})

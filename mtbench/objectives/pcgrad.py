@@ -86,7 +86,7 @@ class PCGrad(TaskGradientWrapper):
     Gram matrix, ``O(K^3)`` projections.
 
     Args:
-        loss_module, num_tasks, params, diagnostics_every, task_key, critic_keys, task_loss_scale:
+        loss_module, num_tasks, params, diagnostics_every, critic_keys, task_loss_scale:
             see :class:`~mtbench.objectives.task_wrapper.TaskGradientWrapper`.
         reduction: ``"mean"`` of the projected gradients (MTBench, default) or ``"sum"`` (paper).
         seed: seed of the task-order generator.
@@ -129,9 +129,10 @@ class PCGrad(TaskGradientWrapper):
 
     def get_extra_state(self) -> dict[str, Any]:
         state = self._generator.get_state() if self._generator is not None else self._pending_state
-        return {"seed": self.seed, "generator_state": state}
+        return {**super().get_extra_state(), "seed": self.seed, "generator_state": state}
 
     def set_extra_state(self, state: dict[str, Any]) -> None:
+        super().set_extra_state(state)
         self.seed = int(state.get("seed", self.seed))
         self._generator = None
         self._pending_state = state.get("generator_state")

@@ -2,31 +2,36 @@
 
 Conventions reproduced from MTBench's ``MTA2CAgent`` (see docs/training.md):
 
-* per-task value normalisation: the critic predicts *normalised* values; GAE runs on values de-normalised
-  with the per-task running statistics; the returns (value targets) update those statistics and both the
-  old values and the targets are then normalised per task (rl_games clamps normalised values to ±5);
-* GAE(gamma=0.99, lambda=0.95) with truncation bootstrap (``GAE(auto_reset_env=True)``: a truncated step
-  gets ``r += gamma * V(s_t)``, since the native-autoreset env does not keep the terminal observation);
+* advantages, value targets and old values come from the loss's value estimator, by default
+  :class:`~mtbench.objectives.per_task_gae.PerTaskGAE` (per-task value normalisation: the critic predicts
+  *normalised* values; GAE(0.99, 0.95) on de-normalised values with the truncation bootstrap of
+  ``GAE(auto_reset_env=True)``; the returns update the per-task statistics);
 * advantages standardised per task inside every minibatch (``actor_loss_mt``);
 * clipped surrogate (0.2), clipped value loss ``max((V-R)^2, (V_old + clip(V-V_old, ±0.2) - R)^2)``
   weighted by ``0.5 * critic_coef`` (critic_coef = 4), entropy bonus 0.005, bounds loss 1e-4 on the action
   mean (soft bound 1.1).
 
-``reduction="none"`` returns per-sample ``loss_objective``, ``loss_critic``, ``loss_entropy`` and
-``loss_bounds`` (shape = batch shape) for the gradient-manipulation wrappers; their mean over the batch is
-the ``reduction="mean"`` output, so summing the ``loss_*`` entries gives rl_games' total loss.
+Use it like any TorchRL loss: ``loss.value_estimator(rollout)`` on the collected ``[N, T]`` rollout (no
+gradients), then ``loss(minibatch)`` on flat minibatches of it. ``reduction="none"`` returns per-sample
+``loss_objective``, ``loss_critic``, ``loss_entropy`` and ``loss_bounds`` (shape = batch shape) for the
+gradient-manipulation wrappers; their mean over the batch is the ``reduction="mean"`` output, so summing the
+``loss_*`` entries gives rl_games' total loss.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import torch
 from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import ProbabilisticTensorDictSequential, TensorDictModule
+from tensordict.utils import NestedKey
 from torchrl.objectives import ClipPPOLoss
-from torchrl.objectives.value import GAE
+from torchrl.objectives.value import ValueEstimatorBase
 
-from ..transforms.running_mean_std import PerTaskRunningMeanStd
 from .mt_utils import bounds_loss, gaussian_policy_kl, per_task_standardize
+from .per_task_gae import PerTaskGAE
 
 _VALID_REDUCTIONS = ("mean", "sum", "none")
 
@@ -34,12 +39,37 @@ _VALID_REDUCTIONS = ("mean", "sum", "none")
 class MTClipPPOBase(ClipPPOLoss):
     """Shared forward of :class:`MTPPOLoss` and :class:`~mtbench.objectives.grpo.MTGRPOLoss`.
 
-    Expects the batch to already contain ``advantage`` (and, with a critic, ``value_target`` and the old
-    normalised ``state_value``): call :meth:`compute_advantage` on the collected ``[N, T]`` batch first.
+    Expects the minibatch to contain ``advantage`` (and, with a critic, ``value_target`` and the old normalised
+    ``state_value``): run ``loss.value_estimator(rollout)`` on the collected ``[N, T]`` rollout first.
     Output keys: ``loss_objective``, ``loss_entropy``, ``loss_bounds`` (+ ``loss_critic``), and detached
     metrics ``entropy``, ``clip_fraction``, ``kl_approx``, ``kl`` (rl_games' analytic Gaussian KL, used by
     the adaptive learning rate), ``ratio_mean`` (+ ``value_clip_fraction``, ``explained_variance``).
+
+    Every key the loss or its value estimator reads is declared in :class:`_AcceptedKeys` and can be renamed
+    with ``loss.set_keys(...)``; the estimator's keys follow.
     """
+
+    @dataclass
+    class _AcceptedKeys(ClipPPOLoss._AcceptedKeys):
+        """Keys of ``ClipPPOLoss`` (``advantage``, ``value_target``, ``value``, ``sample_log_prob``, ``action``,
+        ``reward``, ``done``, ``terminated``) plus:
+
+        Attributes:
+            truncated: ``("next", truncated)`` drives the truncation bootstrap of the value estimator.
+            task_id: per-sample task index (int64, batch-shaped, optional trailing 1).
+            loc, scale: the behaviour policy's Gaussian parameters written by the actor during collection
+                (analytic KL metric).
+            returns: un-normalised returns written by the value estimator.
+        """
+
+        truncated: NestedKey = "truncated"
+        task_id: NestedKey = "task_id"
+        loc: NestedKey = "loc"
+        scale: NestedKey = "scale"
+        returns: NestedKey = "returns"
+
+    default_keys = _AcceptedKeys
+    tensor_keys: _AcceptedKeys
 
     def __init__(
         self,
@@ -56,9 +86,6 @@ class MTClipPPOBase(ClipPPOLoss):
         per_task_advantage_norm: bool = True,
         advantage_eps: float = 1e-8,
         reduction: str = "mean",
-        task_id_key: str = "task_id",
-        loc_key: str = "loc",
-        scale_key: str = "scale",
     ) -> None:
         if reduction not in _VALID_REDUCTIONS:
             raise ValueError(f"unknown reduction {reduction!r}; valid choices: {list(_VALID_REDUCTIONS)}")
@@ -82,29 +109,50 @@ class MTClipPPOBase(ClipPPOLoss):
         self.soft_bound = float(soft_bound)
         self.per_task_advantage_norm = per_task_advantage_norm
         self.advantage_eps = float(advantage_eps)
-        self.task_id_key = task_id_key
-        self.loc_key = loc_key
-        self.scale_key = scale_key
 
-    # ------------------------------------------------------------------ helpers
-    @property
-    def batch_keys(self) -> list[str]:
-        """Entries of the prepared batch that :meth:`forward` reads (the trainer keeps only these)."""
-        keys = list(dict.fromkeys([*self.actor_network.in_keys, self.task_id_key]))
-        keys += [self.tensor_keys.action, self.tensor_keys.sample_log_prob, self.tensor_keys.advantage]
-        keys += [self.loc_key, self.scale_key]
+    # ------------------------------------------------------------------ keys and value estimator
+    def _set_in_keys(self) -> None:
+        """The entries :meth:`forward` reads (the value estimator's are its own ``in_keys``)."""
+        k = self.tensor_keys
+        keys: list[NestedKey] = [*self.actor_network.in_keys, k.task_id, k.action, k.sample_log_prob, k.advantage]
+        keys += [k.loc, k.scale]
         if self._has_critic:
-            keys += [*self.critic_network.in_keys, self.tensor_keys.value_target, self.tensor_keys.value]
-        return list(dict.fromkeys(k for k in keys if isinstance(k, str)))
+            keys += [*self.critic_network.in_keys, k.value_target, k.value]
+        self._in_keys = list(dict.fromkeys(keys))
+
+    def _forward_value_estimator_keys(self, **kwargs: Any) -> None:
+        """Give the value estimator every key it declares under the same name (task id, truncated, ...)."""
+        estimator = getattr(self, "_value_estimator", None)
+        if estimator is not None:
+            names = estimator._AcceptedKeys.__dataclass_fields__
+            keys = {n: getattr(self.tensor_keys, n) for n in names if hasattr(self.tensor_keys, n)}
+            out_keys = getattr(getattr(estimator, "value_network", None), "out_keys", None)
+            if out_keys is not None and keys.get("value") not in out_keys:
+                keys.pop("value", None)  # a critic writing elsewhere: set_keys(value=...) forwards it later
+            estimator.set_keys(**keys)
+        self._set_in_keys()
+
+    def _default_estimator(self, **hyperparams: Any) -> ValueEstimatorBase:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def make_value_estimator(self, value_type: Any = None, **hyperparams: Any) -> MTClipPPOBase:
+        """``None``: the loss's own multi-task estimator (``hyperparams`` override its defaults); otherwise as
+        ``ClipPPOLoss`` (a ``ValueEstimators`` member, a ``ValueEstimatorBase`` subclass or instance). The loss's
+        keys are forwarded to the new estimator."""
+        if value_type is None:
+            estimator = self._default_estimator(**hyperparams)
+            self._value_estimator = estimator
+            self.value_type = type(estimator)
+        else:
+            super().make_value_estimator(value_type, **hyperparams)
+        self._forward_value_estimator_keys()
+        return self
 
     def _task_ids(self, td: TensorDictBase) -> torch.Tensor:
-        task_id = td.get(self.task_id_key, None)
+        task_id = td.get(self.tensor_keys.task_id, None)
         if task_id is None:
-            raise KeyError(f"{type(self).__name__}: '{self.task_id_key}' missing from the batch")
+            raise KeyError(f"{type(self).__name__}: task index {self.tensor_keys.task_id!r} missing from the batch")
         return task_id.reshape(td.batch_size)
-
-    def compute_advantage(self, data: TensorDictBase) -> TensorDictBase:  # pragma: no cover - abstract
-        raise NotImplementedError
 
     # ------------------------------------------------------------------ loss
     def _critic_loss(self, td: TensorDictBase) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
@@ -116,7 +164,10 @@ class MTClipPPOBase(ClipPPOLoss):
         """
         target = td.get(self.tensor_keys.value_target, None)
         if target is None:
-            raise KeyError(f"'{self.tensor_keys.value_target}' missing; call loss.compute_advantage(rollout) first")
+            raise KeyError(
+                f"'{self.tensor_keys.value_target}' missing; run loss.value_estimator(rollout) on the collected "
+                "[N, T] rollout first"
+            )
         with self.critic_network_params.to_module(self.critic_network, preserve_module_state=False):
             value = self.critic_network(td.select(*self.critic_network.in_keys)).get(self.tensor_keys.value)
         loss = (value - target) ** 2
@@ -138,18 +189,19 @@ class MTClipPPOBase(ClipPPOLoss):
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         td = tensordict.clone(False)
-        advantage = td.get(self.tensor_keys.advantage, None)
+        keys = self.tensor_keys
+        advantage = td.get(keys.advantage, None)
         if advantage is None:
             raise KeyError(
-                f"{type(self).__name__}: '{self.tensor_keys.advantage}' missing; call "
-                "loss.compute_advantage(rollout) on the collected batch first"
+                f"{type(self).__name__}: '{keys.advantage}' missing; run loss.value_estimator(rollout) on the "
+                "collected [N, T] rollout first"
             )
         if advantage.ndim == td.batch_dims:
             advantage = advantage.unsqueeze(-1)
         task_id = self._task_ids(td)
         # behaviour-policy parameters, read before the actor re-writes loc/scale into ``td``
-        old_loc = td.get(self.loc_key, None)
-        old_scale = td.get(self.scale_key, None)
+        old_loc = td.get(keys.loc, None)
+        old_scale = td.get(keys.scale, None)
         if self.per_task_advantage_norm:
             advantage = per_task_standardize(advantage, task_id, self.num_tasks, eps=self.advantage_eps)
 
@@ -198,6 +250,9 @@ class MTClipPPOBase(ClipPPOLoss):
 class MTPPOLoss(MTClipPPOBase):
     """Multi-task clipped PPO with per-task value normalisation and per-task minibatch advantage norm.
 
+    The default value estimator is :class:`~mtbench.objectives.per_task_gae.PerTaskGAE` (it holds the per-task
+    value statistics: ``loss.value_estimator.value_norm``); ``loss.make_value_estimator(...)`` replaces it.
+
     Args:
         actor_network: probabilistic actor (``observation``, ``task_id`` -> ``loc``, ``scale``, ``action``,
             ``action_log_prob``); see :func:`mtbench.trainer.actor_critic.make_actor`.
@@ -208,8 +263,8 @@ class MTPPOLoss(MTClipPPOBase):
         critic_coef: rl_games ``critic_coef`` (4); the critic loss is weighted by ``0.5 * critic_coef``.
         clip_value: value-clip radius in normalised units (0.2); ``None`` disables clipping.
         bounds_coeff: weight of the bounds loss on the action mean (1e-4); ``soft_bound`` 1.1.
-        gamma, lmbda: GAE parameters (0.99, 0.95).
-        normalize_value: per-task value normalisation (MTBench: True).
+        gamma, lmbda: GAE parameters of the default estimator (0.99, 0.95).
+        normalize_value: per-task value normalisation in the default estimator (MTBench: True).
         value_norm_clip: clamp of normalised values (rl_games ``RunningMeanStd``: 5); ``None`` disables.
         value_norm_eps: variance epsilon of the value statistics (rl_games: 1e-5).
         per_task_advantage_norm: standardise advantages per task inside each minibatch (MTBench: True).
@@ -235,7 +290,6 @@ class MTPPOLoss(MTClipPPOBase):
         value_norm_eps: float = 1e-5,
         per_task_advantage_norm: bool = True,
         reduction: str = "mean",
-        task_id_key: str = "task_id",
     ) -> None:
         if critic_network is None:
             raise ValueError("MTPPOLoss needs a critic network (use MTGRPOLoss for the critic-free variant)")
@@ -253,84 +307,19 @@ class MTPPOLoss(MTClipPPOBase):
             soft_bound=soft_bound,
             per_task_advantage_norm=per_task_advantage_norm,
             reduction=reduction,
-            task_id_key=task_id_key,
         )
         self.critic_coef = float(critic_coef)
-        self.value_norm: PerTaskRunningMeanStd | None = (
-            PerTaskRunningMeanStd(num_tasks, 1, eps=value_norm_eps, clip=value_norm_clip) if normalize_value else None
+        self.gamma = float(gamma)
+        self.lmbda = float(lmbda)
+        self._estimator_defaults: dict[str, Any] = dict(
+            normalize_value=normalize_value, value_norm_clip=value_norm_clip, value_norm_eps=value_norm_eps
         )
-        self.make_value_estimator(GAE(gamma=gamma, lmbda=lmbda, value_network=None, auto_reset_env=True))
+        self.make_value_estimator()
 
-    @torch.no_grad()
-    def _critic_values(self, observation_td: TensorDictBase) -> torch.Tensor:
-        with self.critic_network_params.to_module(self.critic_network, preserve_module_state=False):
-            out = self.critic_network(observation_td)
-        return out.get(self.tensor_keys.value)
-
-    def denormalize_values(self, values: torch.Tensor, task_id: torch.Tensor) -> torch.Tensor:
-        """Map critic outputs (normalised) to the return scale of each task."""
-        return values if self.value_norm is None else self.value_norm.denormalize(values, task_id)
-
-    @torch.no_grad()
-    def compute_advantage(self, data: TensorDictBase) -> TensorDictBase:
-        """Fill ``advantage``, ``value_target`` and ``state_value`` of a collected ``[N, T]`` rollout.
-
-        1. critic values of ``observation[:, t]`` for all t and of the last ``("next", "observation")``
-           (rows that are done at the last step use a zero observation: their next value is masked);
-           ``V(s_{t+1}) = V(observation[:, t+1])`` is valid for every non-done step;
-        2. values de-normalised per task (current statistics) -> GAE with truncation bootstrap;
-        3. per-task value statistics updated with the returns; ``state_value`` (old values, for value
-           clipping) and ``value_target`` are stored normalised with the updated statistics.
-
-        Returns a shallow copy of ``data`` with the new entries (``data`` itself is not modified).
-        """
-        if data.batch_dims != 2:
-            raise ValueError(f"compute_advantage expects a [num_envs, time] batch, got batch_size={data.batch_size}")
-        td = data.clone(False)
-        task_id = self._task_ids(td)
-        in_keys = [k for k in self.critic_network.in_keys]
-        obs_td = td.select(*in_keys)
-        values = self._critic_values(obs_td)
-        next_td = td.get("next")
-        last = next_td[:, -1].select(*in_keys, strict=False)
-        done_last = next_td.get(self.tensor_keys.done)[:, -1].reshape(-1)
-        for key in in_keys:
-            if key not in last.keys():
-                last.set(key, td.get(key)[:, -1])
-            val = last.get(key)
-            if val.is_floating_point():
-                mask = done_last.reshape(done_last.shape + (1,) * (val.ndim - 1))
-                last.set(key, torch.where(mask, torch.zeros_like(val), val))
-        last_values = self._critic_values(last)
-        next_values = torch.cat([values[:, 1:], last_values.unsqueeze(1)], dim=1)
-
-        values_dn = self.denormalize_values(values, task_id)
-        next_values_dn = self.denormalize_values(next_values, task_id)
-        gae_td = TensorDict(
-            {
-                self.tensor_keys.value: values_dn,
-                "next": {
-                    self.tensor_keys.value: next_values_dn,
-                    self.tensor_keys.reward: next_td.get(self.tensor_keys.reward),
-                    self.tensor_keys.done: next_td.get(self.tensor_keys.done),
-                    self.tensor_keys.terminated: next_td.get(self.tensor_keys.terminated),
-                    "truncated": next_td.get("truncated"),
-                },
-            },
-            batch_size=td.batch_size,
+    def _default_estimator(self, **hyperparams: Any) -> PerTaskGAE:
+        kwargs: dict[str, Any] = dict(
+            gamma=self.gamma, lmbda=self.lmbda, num_tasks=self.num_tasks, **self._estimator_defaults
         )
-        self.value_estimator(gae_td, time_dim=1)
-        advantage = gae_td.get(self.tensor_keys.advantage)
-        returns = gae_td.get(self.tensor_keys.value_target)
-        if self.value_norm is not None:
-            self.value_norm.update(returns, task_id)
-            state_value = self.value_norm.normalize(values_dn, task_id)
-            value_target = self.value_norm.normalize(returns, task_id)
-        else:
-            state_value, value_target = values_dn, returns
-        td.set(self.tensor_keys.advantage, advantage)
-        td.set(self.tensor_keys.value_target, value_target)
-        td.set(self.tensor_keys.value, state_value)
-        td.set("returns", returns)
-        return td
-
+        kwargs.update(hyperparams)
+        device = self._default_device
+        return PerTaskGAE(value_network=self.critic_network, device=device, **kwargs)

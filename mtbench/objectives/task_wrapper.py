@@ -23,6 +23,7 @@ from typing import Any, Sequence
 
 import torch
 from tensordict import TensorDict, TensorDictBase
+from tensordict.utils import NestedKey
 from torch import nn
 from torchrl.objectives import LossModule
 
@@ -89,16 +90,22 @@ class TaskGradientWrapper(LossModule):
             ``"all"``.
         diagnostics_every: compute the pairwise cosine similarities of the per-task actor and critic
             gradients every this many updates (0 = never); see :meth:`backward`.
-        task_key: batch entry holding the task index (int64, batch-shaped, optional trailing 1).
         critic_keys: the loss terms that belong to the critic.
         task_loss_scale: factor applied to the per-task manipulated losses before the method (MTBench's
             PCGrad/CAGrad per-task critic losses omit rl_games' ``0.5 * critic_coef``: use ``1 / (0.5 *
             critic_coef)`` to reproduce their gradient scale exactly).
+
+    The task index is read from the batch entry ``task_id`` (int64, batch-shaped, optional trailing 1): the
+    inner loss's declared ``tensor_keys.task_id`` when it has one (mtbench's losses), else this wrapper's own
+    key; ``wrapper.set_keys(task_id=...)`` renames both, so the wrapper and its loss never disagree.
     """
 
     @dataclass
     class _AcceptedKeys:
-        task_id: str = "task_id"
+        """``task_id``: the batch entry holding the per-sample task index (used when the inner loss declares
+        none)."""
+
+        task_id: NestedKey = "task_id"
 
     #: True for methods built on the per-task gradient matrix (PCGrad, CAGrad), False for loss weighting.
     needs_task_gradients: bool = True
@@ -110,7 +117,6 @@ class TaskGradientWrapper(LossModule):
         *,
         params: str = "critic",
         diagnostics_every: int = 0,
-        task_key: str = "task_id",
         critic_keys: Sequence[str] = ("loss_critic",),
         task_loss_scale: float = 1.0,
     ) -> None:
@@ -129,7 +135,6 @@ class TaskGradientWrapper(LossModule):
         self.num_tasks = int(num_tasks)
         self.params = params
         self.diagnostics_every = int(diagnostics_every)
-        self.task_key = task_key
         self.critic_keys = tuple(critic_keys)
         self.task_loss_scale = float(task_loss_scale)
         self.num_updates = 0
@@ -148,17 +153,35 @@ class TaskGradientWrapper(LossModule):
                 )
         self._last_diagnostics: dict[str, torch.Tensor] = {}
 
-    # ------------------------------------------------------------------ delegation to the inner loss
+    # ------------------------------------------------------------------ keys; delegation to the inner loss
+    def _inner_declares_task_id(self) -> bool:
+        keys = getattr(self.loss_module, "_AcceptedKeys", None)
+        return keys is not None and "task_id" in getattr(keys, "__dataclass_fields__", {})
+
     @property
-    def tensor_keys(self) -> Any:
-        return self.loss_module.tensor_keys
+    def task_id_key(self) -> NestedKey:
+        """The batch entry read as the task index: the inner loss's ``tensor_keys.task_id`` when it declares one,
+        else this wrapper's own ``task_id`` key."""
+        if self._inner_declares_task_id():
+            return self.loss_module.tensor_keys.task_id
+        return self._tensor_keys.task_id
 
     def set_keys(self, **kwargs: Any) -> None:
-        """Set the inner loss's tensordict keys (``task_id`` sets this wrapper's task key)."""
+        """Set tensordict keys: ``task_id`` is this wrapper's key *and* the inner loss's (when it declares one),
+        every other key is the inner loss's."""
         if "task_id" in kwargs:
-            self.task_key = kwargs.pop("task_id")
+            task_id = kwargs.pop("task_id")
+            super().set_keys(task_id=task_id)
+            if self._inner_declares_task_id():
+                self.loss_module.set_keys(task_id=task_id)
         if kwargs:
             self.loss_module.set_keys(**kwargs)
+
+    @property
+    def in_keys(self) -> list[NestedKey]:
+        """The inner loss's ``in_keys`` plus the task index."""
+        inner = list(getattr(self.loss_module, "in_keys", []) or [])
+        return list(dict.fromkeys([*inner, self.task_id_key]))
 
     def make_value_estimator(self, *args: Any, **kwargs: Any) -> Any:
         return self.loss_module.make_value_estimator(*args, **kwargs)
@@ -196,9 +219,10 @@ class TaskGradientWrapper(LossModule):
         return mask
 
     def _task_losses(self, td: TensorDictBase) -> TaskLosses:
-        task_id = td.get(self.task_key, None)
+        key = self.task_id_key
+        task_id = td.get(key, None)
         if task_id is None:
-            raise KeyError(f"{type(self).__name__}: the batch has no {self.task_key!r} entry (per-sample task index)")
+            raise KeyError(f"{type(self).__name__}: the batch has no {key!r} entry (per-sample task index)")
         out = self.loss_module(td)
         numel = task_id.numel()
         ids = flat_task_ids(task_id, numel)
@@ -237,6 +261,18 @@ class TaskGradientWrapper(LossModule):
         for key, value in self._extra_metrics().items():
             out.set(key, value)
         return out
+
+    # ------------------------------------------------------------------ checkpoint state
+    def get_extra_state(self) -> dict[str, Any]:
+        """The update counter (it schedules the diagnostics) and the latest diagnostics (reported at every
+        update), so that a resumed run measures and reports exactly as the uninterrupted one."""
+        return {"num_updates": self.num_updates,
+                "last_diagnostics": {k: v.clone() for k, v in self._last_diagnostics.items()}}
+
+    def set_extra_state(self, state: dict[str, Any]) -> None:
+        self.num_updates = int(state["num_updates"])
+        device = next(iter(self.loss_module.parameters())).device  # checkpoints are loaded on the CPU
+        self._last_diagnostics = {k: v.to(device) for k, v in state["last_diagnostics"].items()}
 
     # ------------------------------------------------------------------ method hooks
     def _combine(self, grads: torch.Tensor, gram_matrix: torch.Tensor, present: torch.Tensor) -> torch.Tensor:

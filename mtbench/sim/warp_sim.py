@@ -304,8 +304,10 @@ class WarpSim:
         with self._on_own_stream():
             self.launch("kin")
 
+    # ``cvel`` and ``cdof_dot`` are read by the next step before MuJoCo Warp recomputes them: without them a
+    # restored world continues on a slightly different trajectory (found by comparing every Data array)
     _STATE_FIELDS = ("qpos", "qvel", "act", "ctrl", "mocap_pos", "mocap_quat", "qacc", "qacc_warmstart", "time",
-                     "geom_xpos")
+                     "geom_xpos", "cvel", "cdof_dot")
 
     def get_state(self) -> dict[str, torch.Tensor]:
         """Copy of the simulation state of every world (enough to continue the same trajectory) and of the

@@ -1,0 +1,225 @@
+"""Build a training run from the Hydra config: env, transforms, networks, loss, value estimator, gradient method,
+optimizer, rollout and hooks. The pieces are separate functions so that other loops (e.g. off-policy) reuse them."""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import torch
+from omegaconf import DictConfig, OmegaConf
+from torch import nn
+from torchrl.envs import EnvBase, TransformedEnv
+
+from ..objectives import MTGRPOLoss, MTPPOLoss, make_gradient_method
+from ..objectives.ppo import MTClipPPOBase
+from ..transforms import PerTaskObservationNorm
+from .actor_critic import GaussianPolicyHead, make_actor, make_critic
+from .checkpoint import CheckpointError, load_checkpoint, seed_everything
+from .config import (
+    as_config,
+    check_config,
+    effective_minibatch_size,
+    resolve_device,
+    resolve_run_paths,
+    total_iterations,
+    warn_if_cpu_run_too_big,
+)
+from .env_factory import make_env_from_cfg
+from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
+from .rollout import base_env
+from .trainer import Trainer
+
+
+def build_env(cfg: DictConfig, device: torch.device) -> EnvBase:
+    """``mtbench.envs.make_env(env.name, num_envs=env.num_envs, device=..., seed=seed, **env.overrides)``; warns
+    first when the run is far too big for the CPU."""
+    warn_if_cpu_run_too_big(device, int(cfg.env.num_envs), int(cfg.loss.horizon))
+    return make_env_from_cfg(cfg.env, device, int(cfg.seed))
+
+
+def add_observation_norm(env: EnvBase, loss_cfg: Mapping[str, Any]) -> EnvBase:
+    """``TransformedEnv(env, PerTaskObservationNorm)`` when ``loss.normalize_input`` (default), else ``env``."""
+    if not loss_cfg.get("normalize_input", True):
+        return env
+    base = base_env(env)
+    norm = PerTaskObservationNorm(base.num_tasks, state_dim=getattr(base, "state_dim", None), device=env.device)
+    return TransformedEnv(env, norm)
+
+
+def build_networks(cfg: DictConfig, env: EnvBase, device: torch.device) -> tuple[nn.Module, nn.Module | None]:
+    """The Gaussian actor and (for PPO) the critic of the ``arch`` preset, sized from the env's specs."""
+    base = base_env(env)
+    obs_dim = int(env.observation_spec["observation"].shape[-1])
+    action_dim = int(env.action_spec.shape[-1])
+    descriptions = getattr(base, "task_descriptions", None)  # CARE's context; else learned task embeddings
+    descriptions = list(descriptions) if descriptions is not None else None
+    arch, num_tasks = cfg.get("arch"), int(base.num_tasks)
+    actor = make_actor(arch, obs_dim=obs_dim, action_dim=action_dim, num_tasks=num_tasks,
+                       task_descriptions=descriptions, log_std_init=float(cfg.loss.get("log_std_init", 0.0)),
+                       device=device)
+    critic = None
+    if cfg.loss.name == "ppo":
+        critic = make_critic(arch, obs_dim=obs_dim, num_tasks=num_tasks, task_descriptions=descriptions, device=device)
+    return actor, critic
+
+
+def compile_networks(actor: nn.Module, critic: nn.Module | None, mode: str | None) -> None:
+    """``torch.compile`` the actor and critic networks in place (``nn.Module.compile``): used by the rollout and
+    by every loss evaluation. The TensorDict plumbing of the loss and the optimizer step stay eager (compiling
+    them whole graph-breaks on TensorDict internals / fused Adam)."""
+    nets = [m.net for m in actor.modules() if isinstance(m, GaussianPolicyHead)]
+    if critic is not None:
+        nets.append(critic.module)
+    for net in nets:
+        net.compile(mode=mode)
+
+
+def build_loss(loss_cfg: Mapping[str, Any], actor: nn.Module, critic: nn.Module | None, num_tasks: int,
+               device: torch.device) -> MTClipPPOBase:
+    """``MTPPOLoss`` (``loss=ppo``, value estimator ``PerTaskGAE``) or ``MTGRPOLoss`` (``loss=grpo``,
+    ``PerTaskMCAdvantage``) with the config's hyperparameters."""
+    lc = loss_cfg
+    common = dict(num_tasks=num_tasks, clip_epsilon=float(lc["clip_epsilon"]), entropy_coeff=float(lc["entropy_coeff"]),
+                  bounds_coeff=float(lc["bounds_coeff"]), soft_bound=float(lc["soft_bound"]), gamma=float(lc["gamma"]))
+    if lc["name"] == "grpo":
+        return MTGRPOLoss(actor, **common).to(device)
+    return MTPPOLoss(
+        actor,
+        critic,
+        critic_coef=float(lc["critic_coef"]),
+        clip_value=None if lc.get("clip_value") is None else float(lc["clip_value"]),
+        lmbda=float(lc["lmbda"]),
+        normalize_value=bool(lc["normalize_value"]),
+        value_norm_clip=None if lc.get("value_norm_clip") is None else float(lc["value_norm_clip"]),
+        per_task_advantage_norm=bool(lc["per_task_advantage_norm"]),
+        **common,
+    ).to(device)
+
+
+def build_gradient_method(grad_cfg: Mapping[str, Any] | None, loss: nn.Module, num_tasks: int) -> nn.Module:
+    """``make_gradient_method(grad.name, loss, num_tasks, **grad)``: the loss itself for ``grad=none`` (or a
+    diagnostics wrapper when ``diagnostics_every > 0``), else the PCGrad / CAGrad / FAMO wrapper."""
+    if grad_cfg is None:
+        return loss
+    kwargs = OmegaConf.to_container(grad_cfg, resolve=True) if OmegaConf.is_config(grad_cfg) else dict(grad_cfg)
+    name = str(kwargs.pop("name", "none"))
+    return make_gradient_method(name, loss, num_tasks, **kwargs)
+
+
+def resolve_graph_update(value: Any, device: torch.device, plain_loss: bool) -> bool:
+    """``cudagraph_update``: ``auto`` = on for CUDA with the plain loss (``grad=none``), ``true`` / ``false``."""
+    if value is None or str(value) == "auto":
+        return device.type == "cuda" and plain_loss
+    if not isinstance(value, bool):
+        raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
+    if value and device.type != "cuda":
+        raise ValueError(f"cudagraph_update=true needs a CUDA device (device={device}); use auto or false")
+    return value
+
+
+def build_optimizer(
+    loss: nn.Module, loss_cfg: Mapping[str, Any], device: torch.device, capturable: bool
+) -> torch.optim.Adam:
+    """Fused Adam (``loss.lr``, ``loss.adam_eps``) over the loss's trainable parameters, with a tensor learning
+    rate (changed in place by the adaptive schedule; ``capturable`` for a CUDA-graphed update)."""
+    params = [p for p in loss.parameters() if p.requires_grad]
+    lr = torch.tensor(float(loss_cfg["lr"]), device=device)
+    return torch.optim.Adam(params, lr=lr, eps=float(loss_cfg["adam_eps"]), fused=True, capturable=capturable)
+
+
+def build_hooks(cfg: DictConfig, logger: Any = None) -> list[TrainerHook]:
+    """The hooks of a run, in call order: non-finite guard, adaptive learning rate (``loss.lr_schedule=adaptive``),
+    metrics logger (when ``logger`` is given), progress display, checkpoints."""
+    lc, ck, lg = cfg.loss, cfg.checkpoint, cfg.logging
+    hooks: list[TrainerHook] = [NonFiniteGuard(int(cfg.get("max_nonfinite_iterations", 10)))]
+    if lc.get("lr_schedule", "fixed") == "adaptive":
+        hooks.append(AdaptiveLR(float(lc.get("kl_threshold", 0.008)), float(lc.get("min_lr", 1e-6)),
+                                float(lc.get("max_lr", 1e-2))))
+    if logger is not None:
+        hooks.append(MetricsLogger(logger))
+    hooks.append(ProgressHook(str(lg.get("progress", "auto")), int(lg.get("print_every", 1) or 1)))
+    hooks.append(Checkpointer(ck.dir, int(ck.get("every", 0) or 0), int(ck.get("keep_last", 0) or 0),
+                              bool(ck.get("save_final", True))))
+    return hooks
+
+
+def load_resume_checkpoint(cfg: DictConfig) -> dict[str, Any] | None:
+    """The checkpoint named by ``resume`` (verified), or ``None``; errors name the parameter."""
+    if not cfg.get("resume"):
+        return None
+    try:
+        return load_checkpoint(str(cfg.resume))
+    except CheckpointError as err:
+        raise ValueError(f"resume={cfg.resume}: {err.reason}") from err
+
+
+def build_trainer(cfg: Mapping[str, Any] | DictConfig, env: EnvBase | None = None, logger: Any = None) -> Trainer:
+    """The run of ``cfg`` (``conf/config.yaml`` schema), ready to ``train()``.
+
+    Validates the config (clear errors before anything is built), seeds, sets ``torch_threads``, fills the run
+    paths (``logging.exp_name``/``log_dir``, ``checkpoint.dir``; a resumed run keeps its own), builds the env
+    (``env`` if given: any env with the mtbench contract) with per-task observation normalisation, the networks,
+    the loss (and its value estimator), the gradient method, fused Adam and the hooks, and restores
+    ``resume``'s checkpoint.
+    """
+    cfg = as_config(cfg)
+    check_config(cfg)
+    resumed = load_resume_checkpoint(cfg)
+    resolve_run_paths(cfg, None if resumed is None else resumed.get("config"))
+    device = resolve_device(cfg.get("device", "auto"))
+    if cfg.get("cudagraphs", False) and device.type != "cuda":
+        raise ValueError(f"cudagraphs=true needs a CUDA device (device={device})")
+    if cfg.get("torch_threads"):
+        torch.set_num_threads(int(cfg.torch_threads))
+    seed_everything(int(cfg.seed))
+    if env is None:
+        effective_minibatch_size(int(cfg.env.num_envs), int(cfg.loss.horizon), int(cfg.loss.minibatch_size))
+        env = build_env(cfg, device)
+    else:
+        warn_if_cpu_run_too_big(device, int(env.batch_size.numel()), int(cfg.loss.horizon))
+    env = add_observation_norm(env, cfg.loss)
+    actor, critic = build_networks(cfg, env, device)
+    num_tasks = int(base_env(env).num_tasks)
+    loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
+    update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
+    graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device, update_module is loss)
+    optimizer = build_optimizer(loss, cfg.loss, device, capturable=graph_update)
+    if cfg.get("compile", False):
+        compile_networks(actor, critic, cfg.get("compile_mode") or None)
+    frames_per_batch = int(env.batch_size.numel()) * int(cfg.loss.horizon)
+    max_grad_norm = cfg.loss.get("max_grad_norm")
+    trainer = Trainer(
+        env,
+        actor,
+        loss,
+        optimizer,
+        horizon=int(cfg.loss.horizon),
+        epochs=int(cfg.loss.epochs),
+        minibatch_size=int(cfg.loss.minibatch_size),
+        total_iterations=total_iterations(cfg, frames_per_batch),
+        update_module=update_module,
+        max_grad_norm=None if max_grad_norm is None else float(max_grad_norm),
+        hooks=build_hooks(cfg, logger),
+        success_window=int(cfg.get("success_window", 5)),
+        cudagraph_policy=bool(cfg.get("cudagraphs", False)),
+        cudagraph_update=graph_update,
+        config=cfg,
+    )
+    if resumed is not None:
+        trainer.load_state_dict(resumed, source=str(cfg.resume))
+    return trainer
+
+
+__all__ = [
+    "add_observation_norm",
+    "build_env",
+    "build_gradient_method",
+    "build_hooks",
+    "build_loss",
+    "build_networks",
+    "build_optimizer",
+    "build_trainer",
+    "compile_networks",
+    "load_resume_checkpoint",
+    "resolve_graph_update",
+]

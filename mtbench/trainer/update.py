@@ -1,0 +1,123 @@
+"""Minibatch updates: gradients of any TorchRL loss (or gradient-manipulation wrapper), clip, optimizer step,
+with hook points, metrics summed on the device, optionally replayed from a CUDA graph."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import torch
+from tensordict import TensorDictBase
+from torch import nn
+
+from ..objectives import compute_gradients
+from ..utils import GraphedStage
+
+HookCaller = Callable[[str, TensorDictBase], None]
+
+
+class MinibatchUpdate:
+    """One optimisation step per minibatch: ``zero_grad`` -> ``compute_gradients(update_module, minibatch)``
+    (``update_module.backward`` for the gradient methods, else the sum of the ``loss_*`` terms) -> global
+    grad-norm clip -> hooks ``before_optimizer_step`` -> ``optimizer.step()`` -> hooks ``on_update``.
+
+    The scalar metrics of every update are stacked into one device vector (key order fixed by the first update)
+    and summed over :meth:`epochs`; nothing is read back to the host. With ``graph=True`` (CUDA) the whole step
+    is captured once, after 3 eager warm-up updates on a side stream, and replayed; every minibatch is gathered
+    into static buffers with ``index_select``.
+
+    Args:
+        update_module: the loss, or the gradient-method wrapper around it.
+        optimizer: over the parameters to update (fused Adam with ``capturable=True`` for ``graph=True``).
+        max_grad_norm: global grad-norm clip (``None``: no clip, the norm is still reported as ``grad_norm``).
+        call_hooks: ``call_hooks(point, metrics)`` runs the hooks of ``point`` (``"before_optimizer_step"``,
+            ``"on_update"``); they must be graph-safe.
+        graph: replay the update from a CUDA graph.
+        device: the device of the parameters.
+    """
+
+    def __init__(
+        self,
+        update_module: nn.Module,
+        optimizer: torch.optim.Optimizer,
+        *,
+        max_grad_norm: float | None,
+        call_hooks: HookCaller,
+        graph: bool = False,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        self.update_module = update_module
+        self.optimizer = optimizer
+        self.params = [p for group in optimizer.param_groups for p in group["params"]]
+        self.max_grad_norm = max_grad_norm
+        self.call_hooks = call_hooks
+        self.graph = bool(graph)
+        self.device = torch.device(device)
+        self.metric_keys: list[str] | None = None
+        self._metric_buf: torch.Tensor | None = None
+        self._static: TensorDictBase | None = None
+        self._stage = GraphedStage(
+            self._static_step,
+            self.device,
+            warmup=3,
+            stream=torch.cuda.Stream(self.device) if self.graph else None,
+            enabled=self.graph,
+            name="minibatch update",
+        )
+
+    def reset_graph(self) -> None:
+        """Capture again at the next update (e.g. the optimizer state was loaded into new tensors)."""
+        self._stage.reset()
+
+    def step(self, minibatch: TensorDictBase) -> TensorDictBase:
+        """One update on ``minibatch``; returns its metrics (detached device tensors, ``grad_norm`` added)."""
+        self.optimizer.zero_grad(set_to_none=True)
+        out = compute_gradients(self.update_module, minibatch)
+        if self.max_grad_norm is not None:
+            grad_norm = torch.nn.utils.clip_grad_norm_(self.params, self.max_grad_norm)
+        else:
+            grads = [p.grad for p in self.params if p.grad is not None]
+            grad_norm = torch.linalg.vector_norm(torch.stack([torch.linalg.vector_norm(g) for g in grads]))
+        metrics = out.select(*[k for k in out.keys() if isinstance(k, str)]).clone(False)
+        metrics.set("grad_norm", grad_norm.detach())
+        self.call_hooks("before_optimizer_step", metrics)
+        self.optimizer.step()
+        self.call_hooks("on_update", metrics)
+        return metrics
+
+    def _vector(self, metrics: TensorDictBase) -> torch.Tensor:
+        if self.metric_keys is None:
+            self.metric_keys = [k for k, v in metrics.items() if isinstance(v, torch.Tensor) and v.numel() == 1]
+        return torch.stack([metrics[k].detach().reshape(()).float() for k in self.metric_keys])
+
+    def _static_step(self) -> None:
+        vector = self._vector(self.step(self._static))
+        if self._metric_buf is None:  # the first calls are eager (graph warm-up)
+            self._metric_buf = torch.zeros_like(vector)
+        self._metric_buf.copy_(vector)
+
+    def epochs(self, batch: TensorDictBase, epochs: int, minibatch_size: int) -> tuple[dict[str, torch.Tensor], int]:
+        """``epochs`` passes over a random permutation of the flat ``batch`` in minibatches of ``minibatch_size``
+        (which divides the batch). Returns ``({key: per-update mean}, number of updates)`` (device tensors)."""
+        n = batch.batch_size[0]
+        num_minibatches = n // minibatch_size
+        if self.graph and self._static is None:
+            self._static = batch[:minibatch_size].clone()
+        total: torch.Tensor | None = None
+        for _ in range(epochs):
+            perm = torch.randperm(n, device=batch.device)
+            for i in range(num_minibatches):
+                idx = perm[i * minibatch_size : (i + 1) * minibatch_size]
+                if self.graph:
+                    for key, value in self._static.items(True, True):
+                        torch.index_select(batch.get(key), 0, idx, out=value)
+                    self._stage()
+                    vector = self._metric_buf
+                else:
+                    vector = self._vector(self.step(batch[idx]))
+                total = vector.clone() if total is None else total.add_(vector)
+        count = epochs * num_minibatches
+        assert total is not None and self.metric_keys is not None
+        return {k: total[j] / count for j, k in enumerate(self.metric_keys)}, count
+
+
+__all__ = ["MinibatchUpdate"]
