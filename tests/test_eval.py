@@ -21,7 +21,8 @@ from mtbench.evaluation.policy import read_checkpoint
 from mtbench.evaluation.render import BACKGROUND, tile
 from mtbench.evaluation.video import read_video, write_video
 from mtbench.logging import iter_messages, read_scalars
-from mtbench.trainer.trainer import Trainer
+from mtbench.trainer import build_trainer
+from mtbench.trainer.checkpoint import CHECKPOINT_VERSION, save_checkpoint
 
 CONF = str(Path(__file__).resolve().parents[1] / "conf")
 TASKS = ["reach", "drawer_close", "button_press_topdown"]
@@ -41,9 +42,8 @@ def checkpoint(tmp_path_factory: pytest.TempPathFactory) -> Path:
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
-        trainer = Trainer(cfg)
+        trainer = build_trainer(cfg)
         trainer.train()
-        trainer.close()
     finally:
         torch.set_num_threads(threads)
     return root / "ckpt" / "final.pt"
@@ -214,8 +214,12 @@ def test_bad_checkpoints_and_sizes_are_refused(checkpoint: Path, tmp_path: Path,
     garbage.write_text("not a checkpoint")
     with pytest.raises(EvalArgumentError, match="cannot be read as a checkpoint written by Trainer.save"):
         evaluate(parse_args([f"checkpoint={garbage}"]))
-    foreign = tmp_path / "foreign.pt"
-    torch.save({"version": 1, "weights": {}}, foreign)
+    plain = tmp_path / "plain.pt"  # a torch file, not an mtbench checkpoint
+    torch.save({"weights": {}}, plain)
+    with pytest.raises(EvalArgumentError, match="not an mtbench checkpoint"):
+        evaluate(parse_args([f"checkpoint={plain}"]))
+    foreign = tmp_path / "foreign.pt"  # an mtbench checkpoint file without a training run in it
+    save_checkpoint(foreign, {"version": CHECKPOINT_VERSION, "weights": {}})
     with pytest.raises(EvalArgumentError, match=r"lacks \['config', 'loss'\]"):
         evaluate(parse_args([f"checkpoint={foreign}"]))
     with pytest.raises(EvalArgumentError, match=r"num_envs=2 is smaller than the number of tasks \(3\)"):
