@@ -95,7 +95,7 @@ def _status(res: RowResult, out: Path) -> str:
 
 
 def _metric_table(results: Sequence[RowResult], table: str, metric: str, unit: str, std_col: bool) -> list[str]:
-    head = ["row", f"paper {unit}", f"ours mean [95% CI]", f"ours IQM [95% CI]"]
+    head = ["row", f"paper {unit}", "ours mean [95% CI]", "ours IQM [95% CI]"]
     if std_col:
         head.append("ours mean ± std")
     head += ["ours − paper", "seeds", "frames/run"]
