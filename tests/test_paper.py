@@ -42,7 +42,7 @@ def _everything(tables: dict, conf_dir: Path = CONF_DIR, **missing: set[str]) ->
             names["archs"].add(row.cfg.arch.name)
             names["grads"].add(row.cfg.grad.name)
     return Library(**{k: frozenset(v - missing.get(k, set())) for k, v in names.items()},
-                   config_keys=frozenset({"init_from", "resume", "seed"}) - missing.get("config_keys", set()),
+                   config_keys=frozenset({"pretrained", "resume", "seed"}) - missing.get("config_keys", set()),
                    conf_dir=conf_dir)
 
 
@@ -63,7 +63,7 @@ def test_tables_and_rows_match_the_paper(tables):
     for name in main:
         row = tables["parkour"][name]
         assert row.pretrain in tables["parkour"] and tables["parkour"][row.pretrain].is_pretrain
-        assert row.requires == ["init_from"] and row.metric == "progress"
+        assert row.requires == ["pretrained"] and row.metric == "progress"
     assert {r.label for r in tables["efficiency"].values()} == {"MT-PPO", "MT-GRPO", "MT-SAC", "MT-PQN"}
     for t in TABLES:
         for row in tables[t].values():
@@ -193,11 +193,11 @@ def test_availability_is_read_from_the_library(tables):
     for t, rows in tables.items():
         for row in rows.values():  # with everything built, every row is runnable (its values fit the library)
             assert row_problems(row, lib, rows) == [], (t, row.name)
-    no_sac = _everything(tables, losses={"sac"}, settings={"parkour_flat"}, config_keys={"init_from"})
+    no_sac = _everything(tables, losses={"sac"}, settings={"parkour_flat"}, config_keys={"pretrained"})
     eff, park = tables["efficiency"], tables["parkour"]
     assert any("loss 'sac'" in p for p in row_problems(eff["mt10_rand_sac"], no_sac, eff))
     problems = row_problems(park["hard_cl_vanilla"], no_sac, park)
-    assert any("'init_from'" in p for p in problems)
+    assert any("'pretrained'" in p for p in problems)
     assert any(p.startswith("pre-training row flat_vanilla: env 'parkour_flat'") for p in problems)
     assert row_problems(park["hard_cl_vanilla"], lib, park) == []
 
@@ -285,14 +285,14 @@ def test_runner_starts_parkour_rows_from_their_pretraining(tmp_path, tables):
     park = tables["parkour"]
     launches = plan_runs([park["hard_pcgrad"], park["flat_vanilla"]], out=tmp_path, seeds=1, frames=100)
     assert [x.row.name for x in launches] == ["flat_vanilla", "hard_pcgrad"]  # pre-training first
-    assert launches[1].init_from == tmp_path / "flat_vanilla" / "s42" / "checkpoints" / "final.pt"
+    assert launches[1].pretrained == tmp_path / "flat_vanilla" / "s42" / "checkpoints" / "final.pt"
     calls: list = []
     # the pre-training run fails: the row that starts from it is blocked, not launched without its weights
     assert execute(launches, runner=_fake_trainer(calls, rc=1, final=False), echo=lambda s: None) == 2
     assert len(calls) == 1
     launches = plan_runs([park["flat_vanilla"], park["hard_pcgrad"]], out=tmp_path, seeds=1, frames=100)
     assert execute(launches, runner=_fake_trainer(calls), echo=lambda s: None) == 0
-    assert any(a.startswith("++init_from=") and a.endswith("flat_vanilla/s42/checkpoints/final.pt") for a in calls[-1])
+    assert any(a.startswith("pretrained=") and a.endswith("flat_vanilla/s42/checkpoints/final.pt") for a in calls[-1])
     # the row's env option when conf/env/parkour_hard.yaml exists, else its inline env (and never the CPU preset)
     conf_env = Path(__file__).resolve().parents[1] / "conf" / "env" / "parkour_hard.yaml"
     assert ("env=parkour_hard" if conf_env.exists() else "env=null") in calls[-1]

@@ -41,7 +41,8 @@ def setting_names() -> list[str]:
     return sorted(METAWORLD_SETS) + sorted(ALL_TASK_NAMES) + sorted(PARKOUR_SETTINGS) + sorted(PARKOUR_TERRAINS)
 
 
-def _is_parkour(name: str | Sequence[str]) -> bool:
+def is_parkour(name: str | Sequence[str]) -> bool:
+    """Whether ``make_env(name)`` builds a Parkour env (a setting, a terrain name or a list of terrain names)."""
     if isinstance(name, str):
         return name in PARKOUR_SETTINGS or name in PARKOUR_TERRAINS
     names = list(name)
@@ -73,7 +74,7 @@ def make_env(
         device = "cuda" if torch.cuda.is_available() else "cpu"
     if not re.fullmatch(r"cpu|cuda(:\d+)?", str(device)):
         raise ValueError(f"device={str(device)!r} is not supported; valid choices: 'cpu', 'cuda', 'cuda:<index>'")
-    if _is_parkour(name):
+    if is_parkour(name):
         from .parkour.settings import make_parkour_env
 
         return make_parkour_env(name, num_envs, device, **overrides)

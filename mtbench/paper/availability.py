@@ -7,7 +7,7 @@ A row is available when
 * its loss is in the trainer's losses (``mtbench.trainer.LOSSES``), its architecture is registered
   (``mtbench.modules.ARCHITECTURES``) and its gradient method too (``mtbench.objectives.GRADIENT_METHODS``),
 * every trainer feature it ``requires`` is a top-level key of ``conf/config.yaml`` (Parkour rows need
-  ``init_from``: starting from the flat-ground pre-training weights),
+  ``pretrained``: starting from the flat-ground pre-training weights),
 * the values it sets inside a group (``loss:``, ``grad:``, ...) are keys of the library's config for that option
   (``conf/<group>/<option>.yaml``), when that file exists,
 * its pre-training row (if any) is available.
@@ -29,7 +29,7 @@ __all__ = ["FEATURES", "Library", "row_problems"]
 
 # what a required config key means, for the messages
 FEATURES: dict[str, str] = {
-    "init_from": "start from the flat-ground pre-training weights (MTBench's checkpoint=)",
+    "pretrained": "start from the flat-ground pre-training weights (MTBench's checkpoint=)",
 }
 
 

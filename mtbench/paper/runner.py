@@ -56,7 +56,7 @@ class Launch:
     frames: int
     state: str = "new"  # done | resume | new | blocked | unavailable
     resume: Path | None = None
-    init_from: Path | None = None
+    pretrained: Path | None = None
     note: str = ""
     problems: list[str] = field(default_factory=list)
 
@@ -66,7 +66,7 @@ class Launch:
 
 
 def _state(launch: Launch, out: Path) -> None:
-    """Fill ``state``/``resume``/``init_from``/``note`` from what is on disk."""
+    """Fill ``state``/``resume``/``pretrained``/``note`` from what is on disk."""
     if launch.problems:
         launch.state, launch.note = "unavailable", "not available: " + "; ".join(launch.problems)
         return
@@ -83,7 +83,7 @@ def _state(launch: Launch, out: Path) -> None:
         launch.state, launch.note = "new", ""
     if launch.row.pretrain is not None:
         ckpt = run_dir(out, launch.row.pretrain, launch.seed) / "checkpoints" / "final.pt"
-        launch.init_from = ckpt
+        launch.pretrained = ckpt
         if not ckpt.exists():
             launch.note = f"starts from {ckpt} (written by pre-training row {launch.row.pretrain}, run first)"
 
@@ -139,8 +139,8 @@ def command(
     ]
     if launch.resume is not None:
         cmd.append(f"resume={launch.resume.resolve()}")
-    if launch.init_from is not None:
-        cmd.append(f"++init_from={launch.init_from.resolve()}")
+    if launch.pretrained is not None:
+        cmd.append(f"pretrained={launch.pretrained.resolve()}")
     cmd += list(extra)
     return cmd
 
@@ -190,9 +190,9 @@ def execute(
         if launch.state in ("done", "unavailable"):
             echo(f"{head}: {launch.state}: {launch.note}" if launch.state == "done" else f"{head}: {launch.note}")
             continue
-        if launch.init_from is not None and not launch.init_from.exists() and not dry_run:
+        if launch.pretrained is not None and not launch.pretrained.exists() and not dry_run:
             launch.state = "blocked"
-            echo(f"{head}: blocked: no pre-training checkpoint {launch.init_from}")
+            echo(f"{head}: blocked: no pre-training checkpoint {launch.pretrained}")
             failures += 1
             continue
         cmd = command(launch, conf_dir=conf_dir, extra=extra, python=python)

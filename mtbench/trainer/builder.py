@@ -26,6 +26,7 @@ from .config import (
 )
 from .env_factory import make_env_from_cfg
 from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
+from .pretraining import load_pretrained
 from .rollout import base_env
 from .trainer import Trainer
 
@@ -160,7 +161,7 @@ def build_trainer(cfg: Mapping[str, Any] | DictConfig, env: EnvBase | None = Non
     paths (``logging.exp_name``/``log_dir``, ``checkpoint.dir``; a resumed run keeps its own), builds the env
     (``env`` if given: any env with the mtbench contract) with per-task observation normalisation, the networks,
     the loss (and its value estimator), the gradient method, fused Adam and the hooks, and restores
-    ``resume``'s checkpoint.
+    ``resume``'s checkpoint, or else copies the networks of ``pretrained`` (weights only).
     """
     cfg = as_config(cfg)
     check_config(cfg)
@@ -207,6 +208,8 @@ def build_trainer(cfg: Mapping[str, Any] | DictConfig, env: EnvBase | None = Non
     )
     if resumed is not None:
         trainer.load_state_dict(resumed, source=str(cfg.resume))
+    elif cfg.get("pretrained"):
+        load_pretrained(trainer, str(cfg.pretrained))
     return trainer
 
 

@@ -86,6 +86,17 @@ def check_config(cfg: DictConfig) -> None:
     env = cfg.get("env") or {}
     if "num_envs" in env:
         _int(env.num_envs, "env.num_envs", 1)
+    pre = cfg.get("pretrain") or {}
+    _int(pre.get("iterations", 0), "pretrain.iterations", 0, " (0: no flat-ground pre-training)")
+    _int(pre.get("num_envs"), "pretrain.num_envs", 1, " (null: env.num_envs)", optional=True)
+    pre_seed = pre.get("seed", 0)
+    if not (isinstance(pre_seed, int) and not isinstance(pre_seed, bool)):
+        raise ValueError(f"pretrain.seed must be an integer; got {pre_seed!r}")
+    pretrained = cfg.get("pretrained")
+    if pretrained is not None and not Path(str(pretrained)).is_file():
+        what = "is a directory" if Path(str(pretrained)).is_dir() else "does not exist"
+        raise ValueError(f"pretrained={pretrained} {what}; give a checkpoint file written by mtbench (e.g. "
+                         "runs/pretrained/<arch>-<key>/checkpoints/final.pt) or null")
     resume = cfg.get("resume")
     if resume is not None and Path(str(resume)).is_dir():
         raise ValueError(f"resume={resume} is a directory; give a checkpoint file written by mtbench (e.g. "

@@ -1,7 +1,9 @@
-"""Per-task episode statistics over a sliding window of iterations (MTBench's success metric)."""
+"""Per-task episode statistics over a sliding window of iterations (MTBench's success metric; Parkour's progress and
+terrain levels)."""
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import Any, Mapping, Sequence
 
@@ -9,6 +11,9 @@ import torch
 from tensordict import TensorDictBase
 
 STAT_KEYS = ("episodes", "success", "return", "length")
+# optional per-task statistics of curriculum envs (Parkour-hard-cl): summed levels of the finished episodes and the
+# highest level of a finished episode (-1: none)
+LEVEL_KEYS = ("terrain_level", "max_terrain_level")
 
 
 class EpisodeStatsWindow:
@@ -18,20 +23,45 @@ class EpisodeStatsWindow:
     episodes that finished during one iteration). The success rate of a task is
     ``successes / finished episodes`` pooled over the window (an episode is a success if it succeeded at
     any step, as in MTBench / the paper, "averaged over the last 5 epochs"); tasks with no finished episode
-    in the window report NaN and are left out of ``success/mean``.
+    in the window report NaN and are left out of ``success/mean``. Envs whose per-episode quantity is not a 0/1
+    success name it in ``metric`` (Parkour: ``"progress"``, the fraction of waypoints reached); the logged keys stay
+    ``success/<task>`` so that every tool reads one schema.
+
+    When the stats hold ``terrain_level`` / ``max_terrain_level`` (the Parkour curriculum), the window also reports
+    the mean terrain level of the finished episodes per task and the highest one (``terrain_level/<task>``,
+    ``terrain_level_max/<task>``).
+
+    Args:
+        task_names: the env's tasks (``env.task_names``).
+        window: iterations pooled.
+        metric: what ``success`` measures, shown in tables (``env.success_metric``; default ``"success"``).
+        active: per task, whether the env has worlds of it (tasks without worlds are left out of the table; all by
+            default). Parkour's flat pre-training has 21 task slots but only ``flat`` worlds.
+        levels: report terrain levels when the stats hold them (``None``/``True``) or never (``False``: an env
+            whose levels are fixed rows, not a curriculum).
     """
 
-    def __init__(self, task_names: Sequence[str], window: int = 5) -> None:
+    def __init__(self, task_names: Sequence[str], window: int = 5, *, metric: str = "success",
+                 active: Sequence[bool] | torch.Tensor | None = None, levels: bool | None = None) -> None:
         if window < 1:
             raise ValueError(f"window must be >= 1, got {window}")
         self.task_names = list(task_names)
         self.window = int(window)
+        self.metric = str(metric)
+        self.track_levels = levels is not False
+        k = len(self.task_names)
+        flags = torch.ones(k, dtype=torch.bool) if active is None else torch.as_tensor(active)
+        self.active = flags.to("cpu", torch.bool)
+        if self.active.shape != (k,):
+            raise ValueError(f"active must hold one flag per task ({k}), got shape {tuple(self.active.shape)}")
         self._items: deque[torch.Tensor] = deque(maxlen=self.window)
-        self.total_episodes = torch.zeros(len(self.task_names), dtype=torch.float64)
+        self._levels: deque[torch.Tensor] = deque(maxlen=self.window)
+        self.total_episodes = torch.zeros(k, dtype=torch.float64)
 
     def push(self, stats: TensorDictBase | Mapping[str, torch.Tensor]) -> None:
         """Add one iteration's per-task sums (moved to the CPU: one host sync per iteration)."""
-        missing = [k for k in STAT_KEYS if k not in stats.keys()]
+        keys = list(stats.keys())
+        missing = [k for k in STAT_KEYS if k not in keys]
         if missing:
             raise KeyError(f"episode stats lack {missing}; env.pop_episode_stats() must return {list(STAT_KEYS)}")
         row = torch.stack([stats[k].detach().to("cpu", torch.float64).reshape(-1) for k in STAT_KEYS])
@@ -39,6 +69,16 @@ class EpisodeStatsWindow:
             raise ValueError(f"episode stats have {row.shape[-1]} tasks, expected {len(self.task_names)}")
         self._items.append(row)
         self.total_episodes += row[0]
+        if self.track_levels and LEVEL_KEYS[0] in keys:
+            level_sum = stats[LEVEL_KEYS[0]].detach().to("cpu", torch.float64).reshape(-1)
+            level_max = (stats[LEVEL_KEYS[1]].detach().to("cpu", torch.float64).reshape(-1) if LEVEL_KEYS[1] in keys
+                         else torch.full_like(level_sum, -1.0))
+            self._levels.append(torch.stack([level_sum, level_max]))
+
+    @property
+    def has_levels(self) -> bool:
+        """Whether the env reports terrain levels (a curriculum)."""
+        return len(self._levels) > 0
 
     def _sums(self) -> torch.Tensor:
         if not self._items:
@@ -46,10 +86,18 @@ class EpisodeStatsWindow:
         return torch.stack(list(self._items)).sum(0)
 
     def per_task(self) -> dict[str, torch.Tensor]:
-        """``success_rate``, ``return``, ``length`` (means per finished episode) and ``episodes`` ([K] each)."""
+        """``success_rate``, ``return``, ``length`` (means per finished episode) and ``episodes`` ([K] each); with a
+        curriculum also ``terrain_level`` (mean level of the finished episodes) and ``max_terrain_level`` (highest;
+        NaN without finished episodes)."""
         episodes, success, ret, length = self._sums()
         denom = torch.where(episodes > 0, episodes, torch.full_like(episodes, float("nan")))
-        return {"episodes": episodes, "success_rate": success / denom, "return": ret / denom, "length": length / denom}
+        out = {"episodes": episodes, "success_rate": success / denom, "return": ret / denom, "length": length / denom}
+        if self._levels:
+            levels = torch.stack(list(self._levels))
+            out["terrain_level"] = levels[:, 0].sum(0) / denom
+            top = levels[:, 1].amax(0)
+            out["max_terrain_level"] = torch.where(top >= 0, top, torch.full_like(top, float("nan")))
+        return out
 
     def mean_success(self) -> float:
         """Average over tasks (with finished episodes in the window) of the per-task success rate."""
@@ -59,7 +107,8 @@ class EpisodeStatsWindow:
 
     def summary(self) -> dict[str, float]:
         """Flat metrics: ``success/<task>``, ``return/<task>``, ``length/<task>``, ``success/mean``,
-        ``return/mean`` (tasks without finished episodes are omitted)."""
+        ``return/mean`` (tasks without finished episodes are omitted); with a curriculum also
+        ``terrain_level/<task>``, ``terrain_level_max/<task>`` and ``terrain_level/mean``."""
         stats = self.per_task()
         out: dict[str, float] = {}
         for i, name in enumerate(self.task_names):
@@ -67,36 +116,60 @@ class EpisodeStatsWindow:
                 out[f"success/{name}"] = float(stats["success_rate"][i])
                 out[f"return/{name}"] = float(stats["return"][i])
                 out[f"length/{name}"] = float(stats["length"][i])
+                if "terrain_level" in stats:
+                    out[f"terrain_level/{name}"] = float(stats["terrain_level"][i])
+                    out[f"terrain_level_max/{name}"] = float(stats["max_terrain_level"][i])
         out["success/mean"] = self.mean_success()
         ret = stats["return"]
         valid = ~torch.isnan(ret)
         out["return/mean"] = float(ret[valid].mean()) if bool(valid.any()) else float("nan")
+        if "terrain_level" in stats:
+            level = stats["terrain_level"]
+            valid = ~torch.isnan(level)
+            out["terrain_level/mean"] = float(level[valid].mean()) if bool(valid.any()) else float("nan")
         return out
 
     def table(self) -> str:
-        """Per-task table (success over the window, mean return, mean length, episodes) as text."""
+        """Per-task table (the metric over the window, mean return, mean length, episodes; mean and highest terrain
+        level with a curriculum) as text; tasks without worlds are left out."""
         stats = self.per_task()
-        width = max([len("task"), *(len(n) for n in self.task_names)])
-        lines = [f"{'task':<{width}}  {'success':>8}  {'return':>10}  {'length':>7}  {'episodes':>9}"]
-        lines.append("-" * len(lines[0]))
-        for i, name in enumerate(self.task_names):
-            eps = int(stats["episodes"][i])
+        levels = "terrain_level" in stats
+        shown = [i for i in range(len(self.task_names)) if bool(self.active[i])]
+        width = max([len("task"), *(len(self.task_names[i]) for i in shown)])
+        col = max(8, len(self.metric))
+        header = f"{'task':<{width}}  {self.metric:>{col}}  {'return':>10}  {'length':>7}  {'episodes':>9}"
+        if levels:
+            header += f"  {'level':>6}  {'max level':>9}"
+        lines = [header, "-" * len(header)]
+        for i in shown:
+            name, eps = self.task_names[i], int(stats["episodes"][i])
             if eps == 0:
-                lines.append(f"{name:<{width}}  {'n/a':>8}  {'n/a':>10}  {'n/a':>7}  {eps:>9d}")
+                line = f"{name:<{width}}  {'n/a':>{col}}  {'n/a':>10}  {'n/a':>7}  {eps:>9d}"
+                if levels:
+                    line += f"  {'n/a':>6}  {'n/a':>9}"
+                lines.append(line)
                 continue
-            lines.append(
-                f"{name:<{width}}  {100 * float(stats['success_rate'][i]):>7.1f}%  {float(stats['return'][i]):>10.2f}"
-                f"  {float(stats['length'][i]):>7.1f}  {eps:>9d}"
-            )
-        lines.append("-" * len(lines[0]))
+            line = (f"{name:<{width}}  {100 * float(stats['success_rate'][i]):>{col - 1}.1f}%  "
+                    f"{float(stats['return'][i]):>10.2f}  {float(stats['length'][i]):>7.1f}  {eps:>9d}")
+            if levels:
+                top = float(stats["max_terrain_level"][i])
+                line += f"  {float(stats['terrain_level'][i]):>6.2f}  {'n/a' if math.isnan(top) else f'{top:.0f}':>9}"
+            lines.append(line)
+        lines.append("-" * len(header))
         mean = self.mean_success()
         mean_txt = "n/a" if mean != mean else f"{100 * mean:.1f}%"
-        lines.append(f"{'mean':<{width}}  {mean_txt:>8}")
+        lines.append(f"{'mean':<{width}}  {mean_txt:>{col}}")
+        hidden = len(self.task_names) - len(shown)
+        if hidden:
+            lines.append(f"({hidden} task slot{'s' if hidden > 1 else ''} without worlds in this env not shown)")
         return "\n".join(lines)
 
     def state_dict(self) -> dict[str, Any]:
-        return {"window": self.window, "items": [t.clone() for t in self._items], "total_episodes": self.total_episodes}
+        return {"window": self.window, "items": [t.clone() for t in self._items],
+                "levels": [t.clone() for t in self._levels], "total_episodes": self.total_episodes}
 
     def load_state_dict(self, state: Mapping[str, Any]) -> None:
         self._items = deque([torch.as_tensor(t, dtype=torch.float64) for t in state["items"]], maxlen=self.window)
+        self._levels = deque([torch.as_tensor(t, dtype=torch.float64) for t in state.get("levels", [])],
+                             maxlen=self.window)
         self.total_episodes = torch.as_tensor(state["total_episodes"], dtype=torch.float64).clone()

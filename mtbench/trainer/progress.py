@@ -47,19 +47,21 @@ class ProgressDisplay:
 
             self._bar = tqdm(total=self.total, initial=initial, file=self.stream, dynamic_ncols=True, unit="it")
 
-    def update(self, iteration: int, frames: int, fps: float, success: float, extra: str = "") -> None:
-        """Report the state after ``iteration`` (1-based) iterations."""
+    def update(self, iteration: int, frames: int, fps: float, success: float, extra: str = "",
+               metric: str = "success") -> None:
+        """Report the state after ``iteration`` (1-based) iterations; ``metric`` names the mean of ``success``
+        (Parkour: ``progress``)."""
         if self.mode == "none":
             return
         if self._bar is not None:
             self._bar.update(iteration - self._bar.n)
-            self._bar.set_postfix_str(f"frames={frames:,} fps={fps:,.0f} success={_fmt_success(success)} {extra}".strip())
+            self._bar.set_postfix_str(f"frames={frames:,} fps={fps:,.0f} {metric}={_fmt_success(success)} {extra}".strip())
             return
         if iteration % self.every == 0 or iteration == self.total:
             width = len(str(self.total))
             line = (
                 f"[iter {iteration:>{width}}/{self.total}] frames={frames:,} fps={fps:,.0f} "
-                f"success={_fmt_success(success)}"
+                f"{metric}={_fmt_success(success)}"
             )
             if extra:
                 line += f" {extra}"

@@ -8,14 +8,16 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import torch
-from omegaconf import DictConfig
+from omegaconf import DictConfig, open_dict
 
 from .builder import build_trainer
-from .config import LOGGERS
+from .config import LOGGERS, as_config, check_config
 from .hooks import Checkpointer, MetricsLogger, NonFiniteGuard
+from .pretraining import needs_flat_stage, pretrain_flat
 from .trainer import Trainer
 
 CPU_ENV_PRESET = "cpu_small"
+CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
 
 
 def _overrides(argv: Sequence[str]) -> dict[str, str]:
@@ -35,6 +37,23 @@ def cpu_default_overrides(argv: Sequence[str], cuda_available: bool | None = Non
     device = given.get("device", "auto")
     on_cpu = device == "cpu" or (device == "auto" and not cuda_available)
     return [f"env={CPU_ENV_PRESET}"] if on_cpu else []
+
+
+def parkour_arch_overrides(argv: Sequence[str], conf_dir: Path = CONF_DIR) -> tuple[list[str], str | None]:
+    """For a Parkour env (``env=parkour_*``), the Go1 preset of the chosen architecture: ``arch=<name>`` (or the
+    default ``mlp``) becomes ``arch=<name>_parkour`` when ``conf/arch/<name>_parkour.yaml`` exists (MTBench's Go1
+    network sizes and per-architecture PPO settings). Returns the new argument list and a note (``None`` when
+    nothing changed)."""
+    given = _overrides(argv)
+    env = given.get("env", "")
+    if not env.startswith("parkour"):
+        return list(argv), None
+    arch = given.get("arch", "mlp")
+    if arch.endswith("_parkour") or not (conf_dir / "arch" / f"{arch}_parkour.yaml").is_file():
+        return list(argv), None
+    out = [a for a in argv if not (a.split("=", 1)[0].lstrip("+~") == "arch" and "=" in a)]
+    note = f"arch={arch} -> arch={arch}_parkour (the Go1 preset of {arch} for Parkour envs)"
+    return [*out, f"arch={arch}_parkour"], note
 
 
 def resume_dir_overrides(argv: Sequence[str]) -> list[str]:
@@ -71,9 +90,9 @@ def _close_logger(logger: Any) -> None:
         close()
 
 
-def run(cfg: DictConfig, env: Any = None) -> Trainer:
-    """Build the run (:func:`~mtbench.trainer.builder.build_trainer`), attach the logger, train, print the per-task
-    success table; returns the trainer."""
+def train_stage(cfg: DictConfig, env: Any = None) -> Trainer:
+    """Build one run (:func:`~mtbench.trainer.builder.build_trainer`), attach the logger, train, close the env and
+    the logger, print the per-task table; returns the trainer."""
     trainer = build_trainer(cfg, env=env)
     cfg = trainer.config
     logger = make_logger(cfg)  # after the env is built: a failing build leaves no empty log file behind
@@ -89,6 +108,8 @@ def run(cfg: DictConfig, env: Any = None) -> Trainer:
     )
     if trainer.iteration or trainer.rollout.steps_done:
         print(f"resumed from {cfg.resume} at iteration {trainer.iteration} ({trainer.frames:,} frames)", flush=True)
+    elif cfg.get("pretrained"):
+        print(f"starting from the weights of {cfg.pretrained}", flush=True)
     try:
         trainer.train()
     finally:
@@ -96,7 +117,7 @@ def run(cfg: DictConfig, env: Any = None) -> Trainer:
         _close_logger(logger)
     guard = trainer.get_hook(NonFiniteGuard)
     skipped = guard.skipped_total if guard is not None else 0
-    print(f"\nPer-task success over the last {trainer.window.window} iterations "
+    print(f"\nPer-task {trainer.window.metric} over the last {trainer.window.window} iterations "
           f"({trainer.frames:,} frames, {skipped} skipped updates):")
     print(trainer.success_table(), flush=True)
     checkpointer = trainer.get_hook(Checkpointer)
@@ -105,10 +126,31 @@ def run(cfg: DictConfig, env: Any = None) -> Trainer:
     return trainer
 
 
+def run(cfg: DictConfig, env: Any = None) -> Trainer | None:
+    """Train the run of ``cfg``. A Parkour run without ``pretrained=`` first pre-trains on flat ground (or reuses
+    the pre-training of its architecture; :mod:`~mtbench.trainer.pretraining`), then fine-tunes from it. Returns the
+    trainer of the last stage that ran, ``None`` when a stop request ended the pre-training."""
+    cfg = as_config(cfg)
+    if needs_flat_stage(cfg):
+        check_config(cfg)  # before a long pre-training: the fine-tuning's config errors show now
+        print("== stage 1/2: flat-ground pre-training", flush=True)
+        path = pretrain_flat(cfg, train_stage)
+        if path is None:
+            return None
+        with open_dict(cfg):
+            cfg.pretrained = str(path)
+        print(f"== stage 2/2: {cfg.env.name}", flush=True)
+    return train_stage(cfg, env)
+
+
 def main_argv() -> list[str]:
-    """``sys.argv`` plus :func:`cpu_default_overrides` and :func:`resume_dir_overrides` (called by
-    ``examples/train.py`` before Hydra parses)."""
-    return [*sys.argv, *cpu_default_overrides(sys.argv[1:]), *resume_dir_overrides(sys.argv[1:])]
+    """``sys.argv`` with :func:`parkour_arch_overrides` applied, plus :func:`cpu_default_overrides` and
+    :func:`resume_dir_overrides` (called by ``examples/train.py`` before Hydra parses)."""
+    args, note = parkour_arch_overrides(sys.argv[1:])
+    if note is not None:
+        print(note, flush=True)
+    return [sys.argv[0], *args, *cpu_default_overrides(args), *resume_dir_overrides(args)]
 
 
-__all__ = ["CPU_ENV_PRESET", "cpu_default_overrides", "main_argv", "make_logger", "resume_dir_overrides", "run"]
+__all__ = ["CPU_ENV_PRESET", "cpu_default_overrides", "main_argv", "make_logger", "parkour_arch_overrides",
+           "resume_dir_overrides", "run", "train_stage"]

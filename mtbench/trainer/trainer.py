@@ -44,6 +44,15 @@ def observation_norm(env: EnvBase) -> PerTaskObservationNorm | None:
     return None
 
 
+def tasks_with_worlds(env: EnvBase, num_tasks: int) -> torch.Tensor | None:
+    """Per task, whether ``env`` has worlds of it (from its ``task_id`` tensor; ``None`` if it has none). Parkour's
+    flat pre-training fills only the ``flat`` slot of its 21 tasks."""
+    task_id = getattr(env, "task_id", None)
+    if not isinstance(task_id, torch.Tensor):
+        return None
+    return torch.bincount(task_id.reshape(-1).cpu(), minlength=num_tasks)[:num_tasks] > 0
+
+
 # keys whose mismatch between a checkpoint and the current config makes a resume meaningless
 RESUME_KEYS = ("env.name", "env.num_envs", "loss.name", "loss.horizon", "arch.name", "grad.name")
 H = TypeVar("H", bound=TrainerHook)
@@ -139,7 +148,10 @@ class Trainer:
             self.update_module, optimizer, max_grad_norm=max_grad_norm, call_hooks=self._call,
             graph=cudagraph_update, device=device,
         )
-        self.window = EpisodeStatsWindow(self.task_names, success_window)
+        self.window = EpisodeStatsWindow(self.task_names, success_window,
+                                         metric=str(getattr(self.base_env, "success_metric", "success")),
+                                         active=tasks_with_worlds(self.base_env, self.num_tasks),
+                                         levels=getattr(self.base_env, "curriculum", None))
         self.iteration = 0
         self.frames = 0
         self.updates = 0  # minibatch updates attempted (NonFiniteGuard counts the skipped ones)
@@ -350,4 +362,4 @@ class Trainer:
         set_rng_state(state["rng"])
 
 
-__all__ = ["RESUME_KEYS", "Trainer", "make_env_from_cfg", "observation_norm"]
+__all__ = ["RESUME_KEYS", "Trainer", "make_env_from_cfg", "observation_norm", "tasks_with_worlds"]

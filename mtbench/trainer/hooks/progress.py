@@ -55,7 +55,11 @@ class ProgressHook(TrainerHook):
         if self.display is None:
             return
         extra = f"kl={metrics['train/kl']:.4f}" if "train/kl" in metrics else ""
-        self.display.update(trainer.iteration, trainer.frames, metrics["fps"], metrics["success/mean"], extra)
+        if "terrain_level/mean" in metrics:
+            level = metrics["terrain_level/mean"]
+            extra = f"level={'n/a' if math.isnan(level) else f'{level:.2f}'} {extra}".strip()
+        metric = getattr(getattr(trainer, "window", None), "metric", "success")
+        self.display.update(trainer.iteration, trainer.frames, metrics["fps"], metrics["success/mean"], extra, metric)
 
     def on_train_end(self, trainer: Any, stopped: bool) -> None:
         if self.display is not None:

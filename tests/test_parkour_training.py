@@ -1,0 +1,302 @@
+"""Parkour training (issue "Parkour II"): the automatic flat pre-training stage (selection, key, reuse, weights),
+the Go1 arch presets chosen for Parkour envs, the curriculum's levels in the success window, resuming a fine-tuning
+run, every architecture and gradient method on a tiny Parkour grid, and the headline command on the CPU."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+
+from mtbench.trainer import build_trainer
+from mtbench.trainer.checkpoint import load_checkpoint
+from mtbench.trainer.hooks import Checkpointer
+from mtbench.trainer.metrics import EpisodeStatsWindow
+from mtbench.trainer.pretraining import (
+    flat_stage_config,
+    load_pretrained,
+    needs_flat_stage,
+    pretrain_flat,
+    stage_directory,
+    stage_key,
+)
+from mtbench.trainer.run import parkour_arch_overrides, train_stage
+
+ROOT = Path(__file__).resolve().parents[1]
+CONF = str(ROOT / "conf")
+TIMING_KEYS = ("fps", "fps_collect", "time/collect_s", "time/update_s")
+# the documented tiny CPU grid (docs/parkour.md): 42 worlds (2 per column), 2 difficulty rows
+TINY = ["env.num_envs=42", "env.overrides.num_rows=2"]
+
+
+def _cfg(tmp_path: Path, *overrides: str):
+    base = ["device=cpu", "torch_threads=1", "loss.horizon=8", "max_iterations=1", "pretrain.iterations=1",
+            f"pretrain.dir={tmp_path / 'pretrained'}", f"checkpoint.dir={tmp_path / 'ckpt'}", "checkpoint.every=0",
+            "logging.progress=none", "logging.logger=none", f"logging.log_dir={tmp_path / 'runs'}"]
+    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
+        return compose("config", overrides=[*base, *TINY, *overrides])
+
+
+# ---------------------------------------------------------------------------------------------- stage selection
+@pytest.mark.parametrize(
+    ("overrides", "expected"),
+    [
+        (["env=parkour_hard_cl"], True),
+        (["env=parkour_easy"], True),
+        (["env=parkour_hard"], True),
+        (["env=parkour_flat"], False),  # the stage itself
+        (["env=mt10_rand"], False),
+        (["env=parkour_hard_cl", "pretrain.iterations=0"], False),
+        (["env=parkour_hard_cl", "resume=/some/run/checkpoints/last.pt"], False),  # a resumed run has its weights
+        (["env=parkour_hard_cl", "env.name=[flat,balance_beam]"], True),  # a terrain list is a Parkour env
+    ],
+)
+def test_flat_stage_selection(tmp_path: Path, overrides: list[str], expected: bool) -> None:
+    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
+        cfg = compose("config", overrides=overrides)
+    assert needs_flat_stage(cfg) is expected
+
+
+def test_given_pretrained_weights_skip_the_stage(tmp_path: Path) -> None:
+    ckpt = tmp_path / "w.pt"
+    ckpt.write_bytes(b"")
+    cfg = _cfg(tmp_path, "env=parkour_hard_cl", f"pretrained={ckpt}")
+    assert not needs_flat_stage(cfg)
+
+
+def test_stage_config_and_key(tmp_path: Path) -> None:
+    cfg = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", "grad=pcgrad", "seed=7", "max_iterations=9",
+               "+env.overrides.curriculum=true")
+    stage = flat_stage_config(cfg)
+    assert stage.env.name == "parkour_flat" and stage.env.num_envs == 42
+    assert dict(stage.env.overrides) == {"num_rows": 2}  # the grid kept, the fine-tuning's curriculum dropped
+    assert stage.grad.name == "none"  # gradient methods start from the plain architecture's weights
+    assert stage.max_iterations == 1 and stage.total_frames is None and stage.seed == 0
+    key = stage_key(stage)
+    # the gradient method, the run's setting, seed and length do not change the stage
+    for other in (["grad=none", "seed=1"], ["env=parkour_easy", "grad=famo"], ["max_iterations=100"]):
+        same = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other)
+        assert stage_key(flat_stage_config(same)) == key, other
+    # what shapes the weights does
+    for other in (["arch=mlp_parkour"], ["arch.kwargs.hidden_dim=128"], ["loss.lr=1e-3"], ["pretrain.iterations=2"],
+                  ["pretrain.seed=1"], ["pretrain.num_envs=84"], ["env.overrides.num_rows=3"]):
+        differs = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other)
+        assert stage_key(flat_stage_config(differs)) != key, other
+    assert stage_directory(cfg).parent == tmp_path / "pretrained"
+    assert stage_directory(cfg).name == f"moore-{key[:12]}"
+
+
+# ---------------------------------------------------------------------------------------------- presets
+def test_parkour_envs_get_the_go1_arch_presets() -> None:
+    args, note = parkour_arch_overrides(["env=parkour_hard_cl", "loss=ppo", "arch=moore"])
+    assert args == ["env=parkour_hard_cl", "loss=ppo", "arch=moore_parkour"] and "moore_parkour" in note
+    assert parkour_arch_overrides(["env=parkour_easy"])[0] == ["env=parkour_easy", "arch=mlp_parkour"]
+    assert parkour_arch_overrides(["env=parkour_easy", "arch=paco_parkour"]) == (
+        ["env=parkour_easy", "arch=paco_parkour"], None)
+    assert parkour_arch_overrides(["env=parkour_easy", "arch=care"]) == (["env=parkour_easy", "arch=care"], None)
+    assert parkour_arch_overrides(["env=mt10_rand", "arch=moore"]) == (["env=mt10_rand", "arch=moore"], None)
+
+
+@pytest.mark.parametrize(
+    ("arch", "log_std", "entropy"),
+    [("mlp_parkour", 1.0, 0.001), ("multihead_parkour", 1.0, 0.001), ("moore_parkour", 0.0, 0.005),
+     ("paco_parkour", 0.0, 0.005), ("soft_modularization_parkour", 0.0, 0.005), ("care", 1.0, 0.001)],
+)
+def test_go1_ppo_settings_per_architecture(arch: str, log_std: float, entropy: float) -> None:
+    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
+        cfg = compose("config", overrides=["env=parkour_hard_cl", f"arch={arch}"])
+        given = compose("config", overrides=["env=parkour_hard_cl", f"arch={arch}", "loss.entropy_coeff=0.02"])
+    assert cfg.loss.log_std_init == log_std and cfg.loss.entropy_coeff == entropy
+    assert not cfg.loss.normalize_input and not cfg.loss.normalize_value and cfg.loss.lr_schedule == "adaptive"
+    assert given.loss.entropy_coeff == 0.02  # the command line wins
+
+
+# ---------------------------------------------------------------------------------------------- success window
+def test_window_reports_levels_and_hides_tasks_without_worlds() -> None:
+    names = ["a", "b", "c"]
+    window = EpisodeStatsWindow(names, window=2, metric="progress", active=[True, False, True])
+    zeros = torch.zeros(3)
+    window.push({"episodes": torch.tensor([2.0, 0.0, 1.0]), "success": torch.tensor([1.0, 0.0, 0.5]),
+                 "return": zeros, "length": zeros, "terrain_level": torch.tensor([6.0, 0.0, 1.0]),
+                 "max_terrain_level": torch.tensor([4.0, -1.0, 1.0])})
+    window.push({"episodes": torch.tensor([2.0, 0.0, 0.0]), "success": torch.tensor([2.0, 0.0, 0.0]),
+                 "return": zeros, "length": zeros, "terrain_level": torch.tensor([10.0, 0.0, 0.0]),
+                 "max_terrain_level": torch.tensor([5.0, -1.0, -1.0])})
+    summary = window.summary()
+    assert summary["success/a"] == 0.75 and summary["success/c"] == 0.5
+    assert summary["terrain_level/a"] == 4.0 and summary["terrain_level_max/a"] == 5.0
+    assert summary["terrain_level/c"] == 1.0 and summary["terrain_level_max/c"] == 1.0
+    assert summary["terrain_level/mean"] == 2.5 and "success/b" not in summary
+    table = window.table()
+    assert table.splitlines()[0].split()[:2] == ["task", "progress"] and "max level" in table
+    assert not any(line.startswith("b ") for line in table.splitlines())
+    assert "1 task slot without worlds" in table
+    restored = EpisodeStatsWindow(names, window=2, metric="progress")
+    restored.load_state_dict(window.state_dict())
+    assert restored.summary() == summary
+    fixed_rows = EpisodeStatsWindow(names, window=2, levels=False)  # levels that are not a curriculum
+    fixed_rows.push({"episodes": torch.ones(3), "success": zeros, "return": zeros, "length": zeros,
+                     "terrain_level": torch.ones(3), "max_terrain_level": torch.ones(3)})
+    assert "terrain_level/mean" not in fixed_rows.summary() and "level" not in fixed_rows.table()
+
+
+# ---------------------------------------------------------------------------------------------- stages, weights
+@pytest.fixture(scope="module")
+def stage(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """One flat pre-training of mlp_parkour on the tiny grid (1 iteration): (tmp dir, final checkpoint)."""
+    tmp = tmp_path_factory.mktemp("stage")
+    cfg = _cfg(tmp, "env=parkour_hard_cl", "arch=mlp_parkour")
+    lines: list[str] = []
+    path = pretrain_flat(cfg, train_stage, echo=lines.append)
+    assert path is not None and path.is_file() and "no checkpoint for this architecture yet" in lines[0]
+    return tmp, path
+
+
+def test_stage_is_trained_once_and_reused(stage: tuple[Path, Path]) -> None:
+    tmp, final = stage
+    saved = load_checkpoint(final)
+    assert saved["config"]["env"]["name"] == "parkour_flat" and saved["counters"]["iteration"] == 1
+    assert (final.parent.parent / "stage.json").is_file()
+    mtime = final.stat().st_mtime_ns
+    lines: list[str] = []
+    # another gradient method, setting and seed of the same architecture: the same stage, not trained again
+    cfg = _cfg(tmp, "env=parkour_easy", "arch=mlp_parkour", "grad=pcgrad", "seed=3")
+    assert pretrain_flat(cfg, lambda c: pytest.fail("trained again"), echo=lines.append) == final
+    assert "reusing" in lines[0] and final.stat().st_mtime_ns == mtime
+
+
+def test_fine_tuning_starts_from_the_stage_weights_only(stage: tuple[Path, Path]) -> None:
+    tmp, final = stage
+    cfg = _cfg(tmp, "env=parkour_hard_cl", "arch=mlp_parkour", "loss.entropy_coeff=0.02", f"pretrained={final}")
+    trainer = build_trainer(cfg)
+    saved = load_checkpoint(final)["loss"]
+    current = trainer.loss.state_dict()
+    networks = [k for k in current if k.split(".", 1)[0].endswith("_network_params")]
+    assert any(k.startswith("actor_network_params") for k in networks)
+    assert any(k.startswith("critic_network_params") for k in networks)
+    for key in networks:
+        torch.testing.assert_close(current[key], saved[key], rtol=0, atol=0)
+    assert float(current["entropy_coeff"]) == pytest.approx(0.02)  # this run's coefficient, not the stage's
+    assert trainer.iteration == 0 and trainer.frames == 0
+    # the weights are the trained ones, not a fresh initialisation
+    fresh = build_trainer(_cfg(tmp, "env=parkour_hard_cl", "arch=mlp_parkour"))
+    assert any(not torch.equal(fresh.loss.state_dict()[k], current[k]) for k in networks)
+    trainer.env.close()
+    fresh.env.close()
+
+
+def test_pretrained_of_another_architecture_is_refused(stage: tuple[Path, Path], tmp_path: Path) -> None:
+    _, final = stage
+    trainer = build_trainer(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour"))
+    with pytest.raises(ValueError, match=r"pretrained=.*do not fit this run's"):
+        load_pretrained(trainer, final)
+    with pytest.raises(ValueError, match=r"pretrained=.*does not exist"):
+        build_trainer(_cfg(tmp_path, "env=parkour_hard_cl", f"pretrained={tmp_path / 'missing.pt'}"))
+    trainer.env.close()
+
+
+def test_resuming_mid_fine_tuning_continues_exactly(stage: tuple[Path, Path], tmp_path: Path) -> None:
+    _, final = stage
+    common = ["env=parkour_hard_cl", "arch=mlp_parkour", f"pretrained={final}", "checkpoint.every=1"]
+    whole = build_trainer(_cfg(tmp_path / "whole", *common, "max_iterations=3"))
+    expected = whole.train()
+    whole.env.close()
+    first = build_trainer(_cfg(tmp_path / "cut", *common, "max_iterations=3"))
+    first.total_iterations = 2  # stop after 2 of the 3 iterations (a kill after the checkpoint of iteration 2)
+    first.train()
+    first.env.close()
+    ckpt = tmp_path / "cut" / "ckpt" / "ckpt_000002.pt"
+    # the resumed run does not read the pre-trained weights again: it continues from its own checkpoint
+    resumed = build_trainer(_cfg(tmp_path / "cut", *[c for c in common if not c.startswith("pretrained")],
+                                 "max_iterations=3", f"resume={ckpt}"))
+    assert resumed.iteration == 2
+    got = resumed.train()
+    resumed.env.close()
+    assert len(got) == 1
+    a, b = expected[-1], got[-1]
+    assert set(a) == set(b) and any(k.startswith("terrain_level/") for k in a)
+    for key in a:
+        if key not in TIMING_KEYS:
+            assert a[key] == b[key] or (math.isnan(a[key]) and math.isnan(b[key])), key
+
+
+# ---------------------------------------------------------------------------------------------- every arch / grad
+@pytest.mark.parametrize(
+    ("arch", "grad"),
+    [("mlp_parkour", "none"), ("moore_parkour", "none"), ("multihead_parkour", "none"), ("paco_parkour", "none"),
+     ("soft_modularization_parkour", "none"), ("care", "none"), ("care_mh", "none"), ("moore_mh", "none"),
+     ("mlp_parkour", "pcgrad"), ("mlp_parkour", "cagrad"), ("mlp_parkour", "famo")],
+)
+def test_every_architecture_and_gradient_method_trains_on_parkour(tmp_path: Path, arch: str, grad: str) -> None:
+    cfg = _cfg(tmp_path, "env=parkour_hard_cl", f"arch={arch}", f"grad={grad}", "pretrain.iterations=0",
+               "loss.epochs=1")
+    with pytest.warns() if arch.startswith("care") else _nothing():  # CARE: no Parkour sentences, learned context
+        trainer = build_trainer(cfg)
+    (metrics,) = trainer.train()
+    trainer.env.close()
+    assert trainer.num_tasks == 21 and trainer.window.metric == "progress"
+    losses = {k: v for k, v in metrics.items() if k.startswith("loss/")}
+    assert losses and all(math.isfinite(v) for v in losses.values())
+
+
+class _nothing:
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, *exc: object) -> bool:
+        return False
+
+
+# ---------------------------------------------------------------------------------------------- the headline command
+def test_headline_command_on_a_tiny_cpu_grid(tmp_path: Path) -> None:
+    """``python examples/train.py env=parkour_hard_cl loss=ppo arch=moore`` with the documented tiny-grid override:
+    pre-trains on flat ground, fine-tunes on the 21 tasks and prints per-task progress and terrain levels; a second
+    run (another gradient method) reuses the pre-training."""
+    args = [sys.executable, str(ROOT / "examples" / "train.py"), "env=parkour_hard_cl", "loss=ppo", "arch=moore",
+            *TINY, "max_iterations=2", "pretrain.iterations=2", "torch_threads=1", "logging.progress=line",
+            f"hydra.run.dir={tmp_path / 'run'}", f"logging.log_dir={tmp_path / 'runs'}"]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run(args, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    text = out.stdout
+    assert "arch=moore -> arch=moore_parkour" in text
+    assert "== stage 1/2: flat-ground pre-training" in text and "== stage 2/2: parkour_hard_cl" in text
+    assert "Per-task progress over the last" in text and "max level" in text
+    for task in ("jump_on_and_off_box", "balance_beam", "flat"):
+        assert task in text.split("== stage 2/2")[1]
+    stage_dirs = list((tmp_path / "runs" / "pretrained").glob("moore-*"))
+    assert len(stage_dirs) == 1 and (stage_dirs[0] / "checkpoints" / "final.pt").is_file()
+    final = load_checkpoint(tmp_path / "run" / "checkpoints" / "final.pt")
+    assert final["config"]["pretrained"] == str(stage_dirs[0] / "checkpoints" / "final.pt")
+    assert final["config"]["arch"]["kwargs"]["num_experts"] == 2  # the Go1 MOORE preset
+    again = subprocess.run([*args[:-2], "grad=pcgrad", f"hydra.run.dir={tmp_path / 'run2'}",
+                            f"logging.log_dir={tmp_path / 'runs'}"], cwd=tmp_path, env=env, capture_output=True,
+                           text=True, timeout=600)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert "flat pre-training: reusing" in again.stdout and "Per-task progress" in again.stdout
+
+
+def test_an_interrupted_stage_continues_from_its_last_checkpoint(tmp_path: Path) -> None:
+    cfg = _cfg(tmp_path, "env=parkour_hard_cl", "arch=mlp_parkour", "pretrain.iterations=2", "checkpoint.every=1")
+
+    def stopped_after_one(stage_cfg):
+        trainer = build_trainer(stage_cfg)
+        trainer.total_iterations = 1  # as if killed after the checkpoint of iteration 1 (no final.pt)
+        trainer.get_hook(Checkpointer).save_final = False
+        trainer.train()
+        trainer.env.close()
+        trainer.total_iterations = 2
+        return trainer
+
+    lines: list[str] = []
+    assert pretrain_flat(cfg, stopped_after_one, echo=lines.append) is None
+    assert "stopped at iteration 1/2" in lines[-1]
+    final = pretrain_flat(cfg, train_stage, echo=lines.append)
+    assert final is not None and "continuing from" in lines[-1] and lines[-1].count("last.pt") == 1
+    assert load_checkpoint(final)["counters"]["iteration"] == 2
