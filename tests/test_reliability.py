@@ -1,15 +1,57 @@
-"""Faults that must not poison a run: non-finite actions and non-finite physics state in a few worlds."""
+"""Faults that must not poison a run: non-finite actions and non-finite physics state in a few worlds, for every env
+family (Meta-World MT10 tasks, Meta-World MT50-only tasks, Parkour)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Callable
+
+import pytest
 import torch
 import warp as wp
 
 from mtbench.envs import make_env
 
 
-def _env(seed: int = 0):
-    return make_env(["reach", "push"], num_envs=[3, 3], device="cpu", seed=seed, random_start_progress=False)
+@dataclass(frozen=True)
+class Family:
+    """How to build a 6-world, 2-task env of a family and reach the simulator of a world."""
+
+    make: Callable[[int], object]
+    action_dim: int
+    # world -> (sim, index of the world in that sim)
+    world_sim: Callable[[object, int], tuple[object, int]]
+    # a position coordinate of a free body (puck / robot base) to make non-finite
+    free_qpos_index: int
+
+
+def _metaworld_sim(env, world: int):
+    for _, state in env.blocks:
+        if world < state.n:
+            return state.sim, world
+        world -= state.n
+    raise IndexError(world)
+
+
+FAMILIES = {
+    "metaworld_mt10": Family(
+        lambda seed: make_env(["reach", "push"], num_envs=[3, 3], device="cpu", seed=seed,
+                              random_start_progress=False),
+        4, _metaworld_sim, -7),
+    "metaworld_mt50": Family(
+        lambda seed: make_env(["hammer", "bin_picking"], num_envs=[3, 3], device="cpu", seed=seed,
+                              random_start_progress=False),
+        4, _metaworld_sim, -7),
+    "parkour": Family(
+        lambda seed: make_env(["flat", "balance_beam"], num_envs=6, device="cpu", seed=seed, num_rows=2,
+                              random_start_progress=False),
+        12, lambda env, world: (env.sim, world), 0),
+}
+
+
+@pytest.fixture(params=sorted(FAMILIES))
+def family(request: pytest.FixtureRequest) -> Family:
+    return FAMILIES[request.param]
 
 
 def _all_finite_rows(sim) -> torch.Tensor:
@@ -21,13 +63,17 @@ def _all_finite_rows(sim) -> torch.Tensor:
     return ok
 
 
-def test_nonfinite_actions_are_replaced_by_zero_and_counted() -> None:
+def _sims(family: Family, env) -> list:
+    return list({id(s): s for s in (family.world_sim(env, w)[0] for w in range(6))}.values())
+
+
+def test_nonfinite_actions_are_replaced_by_zero_and_counted(family: Family) -> None:
     """A NaN/inf action component acts as 0 (exactly: the run equals one given 0 there) and is counted per task."""
-    env, ref = _env(), _env()
+    env, ref = family.make(0), family.make(0)
     td, td_ref = env.reset(), ref.reset()
     g = torch.Generator().manual_seed(0)
     for step in range(4):
-        action = torch.rand(6, 4, generator=g) * 2 - 1
+        action = torch.rand(6, family.action_dim, generator=g) * 2 - 1
         bad = action.clone()
         if step == 1:
             bad[1, 0], bad[4, 3], bad[5] = float("nan"), float("inf"), float("-inf")
@@ -35,25 +81,27 @@ def test_nonfinite_actions_are_replaced_by_zero_and_counted() -> None:
         td["action"], td_ref["action"] = bad, action
         out, td = env.step_and_maybe_reset(td)
         out_ref, td_ref = ref.step_and_maybe_reset(td_ref)
-        assert torch.equal(out["next", "observation"], out_ref["next", "observation"])
-        assert torch.equal(out["next", "reward"], out_ref["next", "reward"])
+        assert torch.equal(out["next", "observation"], out_ref["next", "observation"]), step
+        assert torch.equal(out["next", "reward"], out_ref["next", "reward"]), step
     stats = env.pop_episode_stats()
-    assert stats["nonfinite_actions"].tolist() == [1.0, 2.0]  # one reach world, two push worlds (one step)
-    assert stats["unhealthy"].tolist() == [0.0, 0.0]
+    # per task: world 1 (first task) once, worlds 4 and 5 (second task) once each
+    expected = torch.bincount(env.task_id[[1, 4, 5]], minlength=env.num_tasks).float()
+    assert torch.equal(stats["nonfinite_actions"], expected)
+    assert stats["unhealthy"].sum() == 0
 
 
-def test_a_world_with_nonfinite_state_is_reset_once_and_recovers_the_others_untouched() -> None:
-    env, ref = _env(), _env()
+def test_a_world_with_nonfinite_state_is_reset_once_and_recovers_the_others_untouched(family: Family) -> None:
+    env, ref = family.make(0), family.make(0)
     td, td_ref = env.reset(), ref.reset()
-    reach_sim = env.blocks[0][1].sim
-    push_sim = env.blocks[1][1].sim
     g = torch.Generator().manual_seed(1)
-    unhealthy = torch.zeros(2)
+    unhealthy = 0.0
     for step in range(8):
-        if step == 2:  # NaN velocity in reach world 1, inf position of the puck in push world 2 (world 5)
-            reach_sim.qvel[1, 0] = float("nan")
-            push_sim.qpos[2, -7] = float("inf")
-        action = torch.rand(6, 4, generator=g) * 2 - 1
+        if step == 2:  # NaN velocity in world 1, an infinite free-body position in world 5
+            sim, i = family.world_sim(env, 1)
+            sim.qvel[i, 0] = float("nan")
+            sim, i = family.world_sim(env, 5)
+            sim.qpos[i, family.free_qpos_index] = float("inf")
+        action = torch.rand(6, family.action_dim, generator=g) * 2 - 1
         td["action"], td_ref["action"] = action, action.clone()
         out, td = env.step_and_maybe_reset(td)
         out_ref, td_ref = ref.step_and_maybe_reset(td_ref)
@@ -66,26 +114,26 @@ def test_a_world_with_nonfinite_state_is_reset_once_and_recovers_the_others_unto
         if step == 2:
             assert out["next", "done"].squeeze(-1).tolist() == [False, True, False, False, False, True]
             assert out["next", "reward"][~good].eq(0).all()  # no reward from a blown-up state
-        unhealthy += env.pop_episode_stats()["unhealthy"]
+        unhealthy += float(env.pop_episode_stats()["unhealthy"].sum())
         ref.pop_episode_stats()
     # reset once, then healthy again: every derived physics quantity of the reset worlds is finite
-    assert unhealthy.tolist() == [1.0, 1.0]
-    assert _all_finite_rows(reach_sim).all() and _all_finite_rows(push_sim).all()
+    assert unhealthy == 2.0
+    assert all(_all_finite_rows(sim).all() for sim in _sims(family, env))
 
 
-def test_a_full_reset_restores_a_world_whose_derived_quantities_went_nonfinite() -> None:
+def test_a_full_reset_restores_a_world_whose_derived_quantities_went_nonfinite(family: Family) -> None:
     """MuJoCo Warp's reset restores the state but not e.g. the constraint rows its solver reads: without the
     clean-up the world turned NaN again at every step after the reset."""
-    env = _env()
+    env = family.make(0)
     td = env.reset()
-    sim = env.blocks[0][1].sim
-    sim.qvel[0, 2] = float("nan")
-    td["action"] = torch.zeros(6, 4)
+    sim, i = family.world_sim(env, 0)
+    sim.qvel[i, 2] = float("nan")
+    td["action"] = torch.zeros(6, family.action_dim)
     env.step_and_maybe_reset(td)  # the NaN spreads through the step before the world is reset
     env.pop_episode_stats()
     td = env.reset()
     for _ in range(5):
-        td["action"] = torch.zeros(6, 4)
+        td["action"] = torch.zeros(6, family.action_dim)
         _, td = env.step_and_maybe_reset(td)
     assert env.pop_episode_stats()["unhealthy"].sum() == 0
-    assert _all_finite_rows(sim).all()
+    assert all(_all_finite_rows(s).all() for s in _sims(family, env))

@@ -52,7 +52,7 @@ GOAL_STEPS = 1  # a goal is reached after more than this many steps within GOAL_
 FOOT_CONTACT_FORCE = 2.0  # N
 RESET_JOINT_NOISE = (0.0, 0.9)  # rad added to every default joint angle at reset
 MAX_ROLL, MAX_PITCH, MIN_BASE_Z = 2.5, 1.5, -0.25
-STAT_ROWS = ("episodes", "success", "return", "length", "unhealthy", "terrain_level")
+STAT_ROWS = ("episodes", "success", "return", "length", "unhealthy", "terrain_level", "nonfinite_actions")
 
 
 class ParkourEnv(EnvBase):
@@ -218,6 +218,7 @@ class ParkourEnv(EnvBase):
         self._ep_return = z()
         self._ep_counted = torch.ones(n, dtype=torch.bool, device=dev)
         self._stats = torch.zeros(len(STAT_ROWS), self.num_tasks, device=dev)
+        self._nonfinite_action = torch.zeros(n, dtype=torch.bool, device=dev)
         self._max_level = torch.full((self.num_tasks,), -1, dtype=torch.long, device=dev)
         # step buffers: the stages communicate only through these
         self._action_in = z(ACTION_DIM)
@@ -382,8 +383,12 @@ class ParkourEnv(EnvBase):
 
     # ------------------------------------------------------------------ the step, as four torch stages
     def _stage_action(self) -> None:
-        action = self._action_in
-        self.last_action.copy_(action)  # observed as given (the original stores the raw action)
+        """PD targets from the action; a NaN/inf component is replaced by 0 (and counted) before it can reach the
+        physics or the observation."""
+        finite = torch.isfinite(self._action_in)
+        self._nonfinite_action.copy_(~finite.all(-1))
+        action = torch.where(finite, self._action_in, torch.zeros_like(self._action_in))
+        self.last_action.copy_(action)  # observed unclipped, as the original stores the raw action
         limit = robot.ACTION_CLIP / robot.ACTION_SCALE
         self.sim.ctrl.copy_(action.clamp(-limit, limit) * robot.ACTION_SCALE + self.q_default)
 
@@ -444,7 +449,7 @@ class ParkourEnv(EnvBase):
         c = counted.float()
         progress = self.cur_goal_idx.clamp(max=NUM_GOALS).float() / NUM_GOALS
         rows = torch.stack([c, c * progress, c * self._ep_return, c * self.progress.float(), unhealthy.float(),
-                            c * self.level.float()])
+                            c * self.level.float(), self._nonfinite_action.float()])
         self._stats.index_add_(1, self.task_id, rows)
         level = torch.where(counted, self.level, torch.full_like(self.level, -1))
         self._max_level.scatter_reduce_(0, self.task_id, level, reduce="amax")
@@ -533,8 +538,8 @@ class ParkourEnv(EnvBase):
         """Per-task sums over the episodes finished since the last call (``[21]`` tensors on the env device):
         ``episodes``, ``success`` (summed progress = goals reached / 8, so ``success / episodes`` is the mean
         progress), ``return``, ``length``, ``unhealthy`` (worlds reset after a failed physics state),
-        ``terrain_level`` (summed rows of the finished episodes) and ``max_terrain_level`` (highest row of a finished
-        episode, -1 if none)."""
+        ``terrain_level`` (summed rows of the finished episodes), ``max_terrain_level`` (highest row of a finished
+        episode, -1 if none) and ``nonfinite_actions`` (steps whose action had a NaN/inf component, replaced by 0)."""
         stats = self._stats.clone()
         max_level = self._max_level.clone()
         self._stats.zero_()
