@@ -58,6 +58,19 @@ def _make_env(**kwargs: Any) -> None:
     make_env(["reach", "push"], **kwargs)
 
 
+@pytest.fixture(scope="module")
+def parkour_env() -> Any:
+    from mtbench.envs import make_env
+
+    return make_env(["flat", "balance_beam"], num_envs=N, device="cpu", num_rows=2, random_start_progress=False)
+
+
+def _make_parkour_env(**kwargs: Any) -> None:
+    from mtbench.envs import make_env
+
+    make_env(["flat", "balance_beam"], **{"num_rows": 2, **kwargs})
+
+
 def _logs_cli(*args: str) -> None:
     """``python -m mtbench.logs ARGS`` in a subprocess; raises ``ValueError(stderr)`` on a non-zero exit."""
     out = subprocess.run([sys.executable, "-m", "mtbench.logs", *args], capture_output=True, text=True, cwd=ROOT)
@@ -126,6 +139,8 @@ CASES: list[tuple[str, Callable[[Path, Any], Any], type[Exception], str]] = [
     ("make_env num_envs=2.5", lambda t, e: _make_env(num_envs=2.5, device="cpu"), ValueError,
      r"^num_envs must be a positive integer \(split over the tasks\) or a list of one positive integer per task; "
      r"got 2\.5$"),
+    ("make_env unknown override", lambda t, e: _make_env(num_envs=2, device="cpu", num_rows=2), ValueError,
+     r"^unknown Meta-World env overrides \['num_rows'\]; valid: \[.*'reward_version'.*\]$"),
     ("make_env device=tpu", lambda t, e: _make_env(num_envs=2, device="tpu"), ValueError,
      r"^device='tpu' is not supported; valid choices: 'cpu', 'cuda', 'cuda:<index>'$"),
     ("action [N,3]", lambda t, e: _step(e, torch.zeros(N, 3)), ValueError,
@@ -147,6 +162,40 @@ CASES: list[tuple[str, Callable[[Path, Any], Any], type[Exception], str]] = [
      r"^error: python -m mtbench\.logs has no 'summary' subcommand; usage: python -m mtbench\.logs RUN\.mcap "
      r"\[--out DIR\] \[--last N\] \(prints the summary tables and writes the plots\)$"),
 ]
+
+
+# the env inputs again, for the Parkour family (same messages, Go1 shapes)
+PARKOUR_CASES = [
+    ("make_env num_envs=2.5", lambda e: _make_parkour_env(num_envs=2.5, device="cpu"), ValueError,
+     r"^parkour settings take a total num_envs \(an int, split over the 2 columns\), got 2\.5$"),
+    ("make_env device=tpu", lambda e: _make_parkour_env(num_envs=2, device="tpu"), ValueError,
+     r"^device='tpu' is not supported; valid choices: 'cpu', 'cuda', 'cuda:<index>'$"),
+    ("make_env unknown override", lambda e: _make_parkour_env(num_envs=2, device="cpu", rand=True), ValueError,
+     r"^unknown Parkour env overrides \['rand'\]; valid: \[.*'terrain_collision'.*\]$"),
+    ("make_env terrain_collision=x", lambda e: _make_parkour_env(num_envs=2, device="cpu", terrain_collision="x"),
+     ValueError, r"^unknown terrain_collision 'x'; valid choices: feet, legs, all$"),
+    ("action [N,3]", lambda e: _step(e, torch.zeros(N, 3)), ValueError,
+     r"^env\.step needs tensordict\['action'\] of shape \[num_envs, 12\] = \[2, 12\] \(joint-position offsets, "
+     r"clipped to \+-5\); got shape \[2, 3\]$"),
+    ("action [N]", lambda e: _step(e, torch.zeros(N)), ValueError, r"; got shape \[2\]$"),
+    ("action [N,12,1]", lambda e: _step(e, torch.zeros(N, 12, 1)), ValueError, r"; got shape \[2, 12, 1\]$"),
+    ("no action", lambda e: _step(e, None), ValueError, r"; got no 'action' entry$"),
+    ("float _reset", lambda e: _reset(e, torch.ones(N, 1)), ValueError,
+     r"^env\.reset: '_reset' must be a bool mask .* got torch\.float32 of shape \[2, 1\]$"),
+    ("int _reset", lambda e: _reset(e, torch.ones(N, dtype=torch.long)), ValueError,
+     r"^env\.reset: '_reset' must be a bool mask .* got torch\.int64 of shape \[2\]$"),
+]
+
+
+@pytest.mark.parametrize("action, error, pattern", [c[1:] for c in PARKOUR_CASES], ids=[c[0] for c in PARKOUR_CASES])
+def test_bad_parkour_env_input_gives_one_clear_message(
+    parkour_env: Any, action: Callable[[Any], Any], error: type[Exception], pattern: str
+) -> None:
+    with pytest.raises(error) as info:
+        action(parkour_env)
+    message = str(info.value)
+    assert "\n" not in message
+    assert re.search(pattern, message), message
 
 
 @pytest.mark.parametrize("action, error, pattern", [c[1:] for c in CASES], ids=[c[0] for c in CASES])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import numbers
 import re
 from typing import Any, Sequence
@@ -107,4 +108,8 @@ def make_env(
         counts = [int(c) for c in num_envs]
         if len(counts) != len(tasks):
             raise ValueError(f"{len(counts)} env counts given for {len(tasks)} tasks {tasks}; give one per task")
+    accepted = set(inspect.signature(MetaWorldEnv.__init__).parameters) - {"self", "tasks", "task_counts", "device"}
+    unknown_overrides = sorted(set(overrides) - accepted)
+    if unknown_overrides:
+        raise ValueError(f"unknown Meta-World env overrides {unknown_overrides}; valid: {sorted(accepted)}")
     return MetaWorldEnv(tasks, counts, device=device, **overrides)

@@ -11,6 +11,7 @@ from torchrl.envs import EnvBase
 
 from ...sim import WarpSim, launch_all, warp_device
 from ...utils import GraphedStage
+from ..inputs import checked_action, reset_mask
 from . import observation as layout
 from . import robot
 from .models import compiled_task
@@ -307,12 +308,7 @@ class MetaWorldEnv(EnvBase):
 
     # ------------------------------------------------------------------ EnvBase API
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        action = tensordict.get("action", None)
-        expected = (self.batch_size[0], ACTION_DIM)
-        if action is None or tuple(action.shape) != expected:  # shape metadata only: no device sync
-            got = "no 'action' entry" if action is None else f"shape {list(action.shape)}"
-            raise ValueError(f"env.step needs tensordict['action'] of shape [num_envs, {ACTION_DIM}] = "
-                             f"{list(expected)} (values in [-1, 1]); got {got}")
+        action = checked_action(tensordict, self.batch_size[0], ACTION_DIM, "values in [-1, 1]")
         out = self._core_step(action)
         return TensorDict(
             {
@@ -358,13 +354,7 @@ class MetaWorldEnv(EnvBase):
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
         n = self.batch_size[0]
-        mask = torch.ones(n, dtype=torch.bool, device=self.device)
-        if tensordict is not None and "_reset" in tensordict.keys():
-            reset = tensordict.get("_reset")
-            if reset.dtype != torch.bool or tuple(reset.shape) not in ((n,), (n, 1)):
-                raise ValueError(f"env.reset: '_reset' must be a bool mask of shape [num_envs] or [num_envs, 1] = "
-                                 f"[{n}] or [{n}, 1]; got {reset.dtype} of shape {list(reset.shape)}")
-            mask = reset.reshape(n).to(self.device)
+        mask = reset_mask(tensordict, n, self.device)
         self._reset_worlds(mask)
         frame = self._frames()
         obs = self._observation(frame, torch.where(mask[:, None], frame, self._prev_frame))

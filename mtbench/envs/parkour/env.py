@@ -30,6 +30,7 @@ from torchrl.envs import EnvBase
 
 from ...sim import WarpSim, launch_all, warp_device
 from ...utils import GraphedStage
+from ..inputs import checked_action, reset_mask
 from . import curriculum as cl
 from . import domain_rand, robot
 from .height_scan import HeightGrid, scan_points
@@ -473,15 +474,14 @@ class ParkourEnv(EnvBase):
                 "truncated": self._truncated[:, None].clone()}
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        out = self._core_step(tensordict.get("action"))
+        action = checked_action(tensordict, self.batch_size[0], ACTION_DIM, "joint-position offsets, clipped to +-5")
+        out = self._core_step(action)
         out["task_id"] = self.task_id
         return TensorDict(out, batch_size=self.batch_size, device=self.device)
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
         n = self.batch_size[0]
-        mask = torch.ones(n, dtype=torch.bool, device=self.device)
-        if tensordict is not None and "_reset" in tensordict.keys():
-            mask = tensordict.get("_reset").reshape(n).to(self.device)
+        mask = reset_mask(tensordict, n, self.device)
         self.sim.reset(mask)
         self._place(mask)
         self.sim.kinematics()

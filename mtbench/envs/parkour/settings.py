@@ -16,6 +16,7 @@ style.
 
 from __future__ import annotations
 
+import inspect
 from typing import Any, Sequence
 
 import torch
@@ -72,6 +73,11 @@ def make_parkour_env(
             raise ValueError(f"unknown parkour names {unknown}; valid choices: {sorted(SETTINGS)} or terrain names "
                              f"{list(TERRAIN_NAMES)}")
         default_easy, default_curriculum = False, False
+    accepted = set(inspect.signature(ParkourEnv.__init__).parameters) - {"self", "terrain", "num_envs", "device"}
+    unknown_overrides = sorted(set(overrides) - accepted)
+    if unknown_overrides:
+        valid = sorted(accepted | {"num_rows", "terrain_seed", "easy", "curriculum", "terrain_config"})
+        raise ValueError(f"unknown Parkour env overrides {unknown_overrides}; valid: {valid}")
     if num_envs is not None and not isinstance(num_envs, int):
         raise ValueError(f"parkour settings take a total num_envs (an int, split over the {len(columns)} columns), "
                          f"got {num_envs!r}")
