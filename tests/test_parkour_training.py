@@ -300,3 +300,43 @@ def test_an_interrupted_stage_continues_from_its_last_checkpoint(tmp_path: Path)
     final = pretrain_flat(cfg, train_stage, echo=lines.append)
     assert final is not None and "continuing from" in lines[-1] and lines[-1].count("last.pt") == 1
     assert load_checkpoint(final)["counters"]["iteration"] == 2
+
+
+# ---------------------------------------------------------------------------------------------- evaluation
+def test_eval_command_on_a_parkour_moore_checkpoint(tmp_path: Path) -> None:
+    """``examples/eval.py`` on a Parkour run (MOORE: its task one-hots are a non-persistent buffer that TorchRL's
+    loss keeps): per-task progress for the 21 terrains, deterministic actions inside the Go1's +-5 bounds; videos are
+    refused with a clear message."""
+    from mtbench.evaluation import EvalArgumentError, evaluate, parse_args
+
+    cfg = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", "pretrain.iterations=0",
+               "+env.overrides.episode_length=16")
+    trainer = build_trainer(cfg)
+    trainer.train()
+    trainer.env.close()
+    ckpt = tmp_path / "ckpt" / "final.pt"
+    seen: list[torch.Tensor] = []
+
+    def record(policy) -> None:
+        with torch.no_grad():  # large means: the deterministic actions reach the clamp
+            for param in policy.actor.parameters():
+                param.mul_(30.0)
+        forward = policy.forward
+
+        def wrapped(td, deterministic=False):
+            action = forward(td, deterministic)
+            if deterministic:
+                seen.append(action)
+            return action
+        policy.forward = wrapped
+
+    report = evaluate(parse_args([f"checkpoint={ckpt}", "episodes=1", f"out={tmp_path / 'eval'}"]),
+                      policy_hook=record)
+    sampled, deterministic = report.results
+    assert sampled.metric == "progress" and len(sampled.task_names) == 21
+    assert all(n >= 1 for n in deterministic.episodes)
+    assert all(0.0 <= p <= 1.0 for p in deterministic.success)
+    actions = torch.cat(seen)
+    assert actions.abs().max() == 5.0  # clamped to the Go1's +-5, not to Meta-World's [-1, 1]
+    with pytest.raises(EvalArgumentError, match="video=true renders .* ParkourEnv has none"):
+        evaluate(parse_args([f"checkpoint={ckpt}", "episodes=1", "video=true", f"out={tmp_path / 'eval2'}"]))

@@ -45,6 +45,8 @@ def checkpoint_num_tasks(state: Mapping[str, Any]) -> int | None:
     extra = (state.get("env") or {}).get("_extra_state")
     if isinstance(extra, Mapping) and extra.get("task_names"):
         return len(extra["task_names"])
+    if isinstance(extra, Mapping) and extra.get("columns"):  # Parkour: worlds are split over the terrain columns
+        return len(extra["columns"])
     for part, key in (("obs_norm", "stats.count"), ("loss", "value_norm.count")):
         tensor = (state.get(part) or {}).get(key)
         if isinstance(tensor, torch.Tensor) and tensor.ndim == 1:
@@ -77,13 +79,16 @@ class EvalPolicy(nn.Module):
 
     ``forward(td, deterministic)`` returns the action for ``td["observation"]`` / ``td["task_id"]``:
     sampled from the Gaussian policy (as in training and in the paper's evaluation) or its mean clamped to
-    [-1, 1] (``deterministic=True``). The input tensordict is not modified.
+    the env's action bounds ``[action_low, action_high]`` (``deterministic=True``). The input tensordict is not modified.
     """
 
-    def __init__(self, actor: nn.Module, obs_norm: PerTaskObservationNorm | None) -> None:
+    def __init__(self, actor: nn.Module, obs_norm: PerTaskObservationNorm | None,
+                 action_low: torch.Tensor | float = -1.0, action_high: torch.Tensor | float = 1.0) -> None:
         super().__init__()
         self.actor = actor
         self.obs_norm = obs_norm
+        self.register_buffer("action_low", torch.as_tensor(action_low, dtype=torch.float32))
+        self.register_buffer("action_high", torch.as_tensor(action_high, dtype=torch.float32))
         if obs_norm is not None:
             obs_norm.freeze()
         self.eval()
@@ -102,7 +107,13 @@ class EvalPolicy(nn.Module):
         kind = InteractionType.DETERMINISTIC if deterministic else InteractionType.RANDOM
         with set_interaction_type(kind):
             action = self.actor(inp).get("action")
-        return action.clamp(-1.0, 1.0) if deterministic else action
+        return torch.clamp(action, self.action_low, self.action_high) if deterministic else action
+
+
+def _non_persistent_buffers(module: nn.Module) -> list[str]:
+    """Dotted names of the non-persistent buffers of ``module`` and its submodules."""
+    return [f"{prefix}.{name}" if prefix else name for prefix, sub in module.named_modules()
+            for name in getattr(sub, "_non_persistent_buffers_set", ())]
 
 
 def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> EvalPolicy:
@@ -117,6 +128,10 @@ def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> Eva
         task_descriptions=list(descriptions) if descriptions is not None else None, device=device,
     )
     weights = {k[len(ACTOR_PREFIX):]: v for k, v in state["loss"].items() if k.startswith(ACTOR_PREFIX)}
+    # TorchRL's loss modules keep every buffer of their networks, also the non-persistent ones (e.g. MOORE's task
+    # one-hots) that the actor's own state_dict leaves out
+    for name in _non_persistent_buffers(actor):
+        weights.pop(name, None)
     try:
         actor.load_state_dict(weights, strict=True)
     except RuntimeError as err:
@@ -129,7 +144,9 @@ def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> Eva
     if (cfg.get("loss") or {}).get("normalize_input", True) and norm_state is not None:
         obs_norm = PerTaskObservationNorm(num_tasks, state_dim=int(norm_state["stats.mean"].shape[-1]), device=device)
         obs_norm.load_state_dict(norm_state)
-    return EvalPolicy(actor, obs_norm).to(device)
+    space = env.action_spec.space  # the env's action bounds: [-1, 1] (Meta-World), +-5 (Parkour)
+    low, high = space.low.reshape(-1, action_dim)[0], space.high.reshape(-1, action_dim)[0]
+    return EvalPolicy(actor, obs_norm, low, high).to(device)
 
 
 __all__ = ["ACTOR_PREFIX", "EvalPolicy", "checkpoint_num_tasks", "eval_env_config", "load_policy",

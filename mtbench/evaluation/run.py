@@ -80,6 +80,9 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
         steps = int(env.max_episode_steps)
         counts = worlds_per_task(env)
         recorder = None
+        if args.video and getattr(env, "blocks", None) is None:
+            raise EvalArgumentError(f"video=true renders envs made of per-task MuJoCo Warp scenes (Meta-World); "
+                                    f"{type(env).__name__} has none: run with video=false")
         if args.video:
             frames = args.video_frames if args.video_frames is not None else min(DEFAULT_VIDEO_FRAMES, steps)
             if not 1 <= frames <= steps:
