@@ -186,6 +186,10 @@ def build_trainer(cfg: Mapping[str, Any] | DictConfig, env: EnvBase | None = Non
     graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device, update_module is loss)
     optimizer = build_optimizer(loss, cfg.loss, device, capturable=graph_update)
     if cfg.get("compile", False):
+        if update_module is not loss:
+            # gradient methods backpropagate several task losses through one graph (retain_graph=True), which a
+            # compiled backward with donated buffers refuses ("compiled with non-empty donated buffers")
+            torch._functorch.config.donated_buffer = False
         compile_networks(actor, critic, cfg.get("compile_mode") or None)
     frames_per_batch = int(env.batch_size.numel()) * int(cfg.loss.horizon)
     max_grad_norm = cfg.loss.get("max_grad_norm")
