@@ -547,7 +547,12 @@ def test_preset_builds_actor_and_critic(path):
     from omegaconf import OmegaConf
 
     cfg = OmegaConf.load(path)
-    assert set(cfg.keys()) == {"name", "kwargs", "actor", "critic"}
+    # Go1 presets also carry the per-arch PPO settings the Parkour sizing files read
+    extra = {"parkour_ppo"} if path.stem.endswith("_parkour") else set()
+    assert set(cfg.keys()) == {"name", "kwargs", "actor", "critic"} | extra
+    if extra:
+        assert set(cfg.parkour_ppo.keys()) == {"log_std_init", "entropy_coeff"}
+        assert cfg.parkour_ppo.entropy_coeff > 0
     num_tasks = 50 if "mt50" in path.stem else (21 if "parkour" in path.stem else 10)
     for role, out_dim in (("actor", 4), ("critic", 1)):
         name, kwargs = arch_kwargs(cfg, role)

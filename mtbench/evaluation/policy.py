@@ -144,8 +144,12 @@ def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> Eva
     if (cfg.get("loss") or {}).get("normalize_input", True) and norm_state is not None:
         obs_norm = PerTaskObservationNorm(num_tasks, state_dim=int(norm_state["stats.mean"].shape[-1]), device=device)
         obs_norm.load_state_dict(norm_state)
-    space = env.action_spec.space  # the env's action bounds: [-1, 1] (Meta-World), +-5 (Parkour)
-    low, high = space.low.reshape(-1, action_dim)[0], space.high.reshape(-1, action_dim)[0]
+    # the env's action bounds (a bounded spec): [-1, 1] for Meta-World, +-5 for Parkour; [-1, 1] otherwise
+    low, high = getattr(env.action_spec, "low", None), getattr(env.action_spec, "high", None)
+    if isinstance(low, torch.Tensor) and isinstance(high, torch.Tensor):
+        low, high = low.reshape(-1, action_dim)[0], high.reshape(-1, action_dim)[0]
+    else:
+        low, high = -1.0, 1.0
     return EvalPolicy(actor, obs_norm, low, high).to(device)
 
 
