@@ -8,7 +8,7 @@ from typing import Any
 import torch
 from tensordict import TensorDictBase
 
-from ...objectives.gradients import total_loss
+from ...objectives.gradients import is_loss_key, total_loss
 from .base import TrainerHook
 
 
@@ -42,7 +42,7 @@ class NonFiniteGuard(TrainerHook):
 
     def before_optimizer_step(self, trainer: Any, metrics: TensorDictBase) -> None:
         finite = torch.isfinite(metrics["grad_norm"])
-        if any(isinstance(k, str) and k.startswith("loss_") for k in metrics.keys()):
+        if any(is_loss_key(k) for k in metrics.keys()):
             finite = finite & torch.isfinite(total_loss(metrics))
         skipped = (~finite).to(torch.float32)
         trainer.optimizer.found_inf = skipped
