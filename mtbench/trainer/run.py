@@ -13,7 +13,7 @@ from omegaconf import DictConfig
 from .builder import build_trainer
 from .config import LOGGERS
 from .hooks import Checkpointer, MetricsLogger, NonFiniteGuard
-from .trainer import Trainer
+from .loop import TrainingLoop
 
 CPU_ENV_PRESET = "cpu_small"
 
@@ -71,7 +71,7 @@ def _close_logger(logger: Any) -> None:
         close()
 
 
-def run(cfg: DictConfig, env: Any = None) -> Trainer:
+def run(cfg: DictConfig, env: Any = None) -> TrainingLoop:
     """Build the run (:func:`~mtbench.trainer.builder.build_trainer`), attach the logger, train, print the per-task
     success table; returns the trainer."""
     trainer = build_trainer(cfg, env=env)
@@ -82,8 +82,7 @@ def run(cfg: DictConfig, env: Any = None) -> Trainer:
     print(
         f"mtbench | {cfg.loss.name} arch={cfg.arch.name} grad={cfg.grad.name} env={cfg.env.name} "
         f"tasks={trainer.num_tasks} envs={trainer.num_envs} horizon={trainer.horizon} device={trainer.env.device} | "
-        f"{trainer.total_iterations} iterations x {trainer.frames_per_batch:,} frames "
-        f"({trainer.epochs} epochs x {trainer.num_minibatches} minibatches of {trainer.minibatch_size:,}) | "
+        f"{trainer.total_iterations} iterations x {trainer.frames_per_batch:,} frames ({trainer.update_summary()}) | "
         f"run {cfg.logging.exp_name}",
         flush=True,
     )
