@@ -9,6 +9,7 @@ import torch
 from tensordict.nn import InteractionType, TensorDictModule
 from torch import nn
 from torch.distributions import Independent, Normal, TanhTransform, TransformedDistribution
+from torchrl.data import Bounded
 from torchrl.modules import ProbabilisticActor
 
 from ..modules import make_network
@@ -89,7 +90,8 @@ def make_sac_actor(
 ) -> ProbabilisticActor:
     """Tanh-Gaussian actor ``(observation, task_id) -> loc, scale -> action ~ SquashedNormal`` (actions in
     ``(-1, 1)``), the arch preset's ``actor`` network with ``2 |A|`` outputs. It writes ``loc``, ``scale`` and
-    ``action``; TorchRL's ``SACLoss`` draws its own reparameterised samples from it."""
+    ``action``; TorchRL's ``SACLoss`` draws its own reparameterised samples from it. Its ``spec`` is the action
+    box ``[-1, 1]^|A|`` (``SACLoss(target_entropy="auto")`` reads ``-|A|`` from it)."""
     name, kwargs = resolve_arch(arch_cfg, "actor")
     net = make_network(name, obs_dim=obs_dim, out_dim=2 * action_dim, num_tasks=num_tasks,
                        task_descriptions=task_descriptions, **kwargs)
@@ -100,6 +102,7 @@ def make_sac_actor(
         module,
         in_keys=["loc", "scale"],
         out_keys=["action"],
+        spec=Bounded(-1.0, 1.0, shape=(action_dim,), device=device),
         distribution_class=SquashedNormal,
         return_log_prob=False,
         default_interaction_type=InteractionType.RANDOM,
