@@ -370,6 +370,8 @@ def test_resume_is_exact_with_the_replay_buffer_and_without_it(tmp_path: Path):
     ckpt = tmp_path / "ckpt" / "ckpt_000006.pt"
     saved = load_checkpoint(ckpt)
     assert saved["replay"]["size"] == 36 and saved["nstep"]["carry"].batch_size == (12, 3)
+    action = saved["replay"]["data"]["action"]  # only the filled rows are saved, not the buffer's capacity (100)
+    assert action.shape == (36, ACT) and action.untyped_storage().nbytes() == 36 * ACT * action.element_size()
     resumed = build_trainer(_cfg(tmp_path, f"resume={ckpt}", f"checkpoint.dir={tmp_path / 'b'}"), env=_env())
     assert len(resumed.replay) == 36 and resumed.iteration == 6
     rest = resumed.train()

@@ -32,7 +32,9 @@ def replay_state_dict(buffer: ReplayBuffer) -> dict[str, Any]:
     """The buffer's content for a checkpoint: the ``len(buffer)`` filled rows (on the CPU, in storage order) and
     the writer's cursor; :func:`load_replay_state_dict` puts them back at the same storage positions."""
     size = len(buffer)
-    data = buffer.storage[:size].to("cpu") if size else None
+    data = buffer.storage[:size] if size else None  # a view of the storage: copied, so that only these rows are saved
+    if data is not None:
+        data = data.clone() if data.device == torch.device("cpu") else data.to("cpu")
     return {"size": size, "capacity": buffer.storage.max_size, "data": data, "writer": buffer.writer.state_dict()}
 
 
