@@ -6,6 +6,10 @@ from .per_task_gae import PerTaskGAE
 from .per_task_returns import PerTaskMCAdvantage, discounted_reward_to_go, grpo_advantages
 from .ppo import MTClipPPOBase, MTPPOLoss
 
+# off-policy (MT-SAC)
+from .nstep import NStepTransitions, nstep_transitions
+from .sac import MTSACLoss
+
 # gradient manipulation (issue #5)
 from .cagrad import CAGrad, cagrad, cagrad_weights
 from .diagnostics import DIAGNOSTIC_KEYS, GradientDiagnostics
@@ -21,11 +25,14 @@ __all__ = [
     "MTClipPPOBase",
     "MTGRPOLoss",
     "MTPPOLoss",
+    "MTSACLoss",
+    "NStepTransitions",
     "PerTaskGAE",
     "PerTaskMCAdvantage",
     "compute_gradients",
     "discounted_reward_to_go",
     "grpo_advantages",
+    "nstep_transitions",
     "total_loss",
     # gradient manipulation
     "CAGrad",

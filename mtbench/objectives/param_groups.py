@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Iterable
+from typing import Iterable, Mapping, Sequence
 
 import torch
 from tensordict import TensorDictBase
@@ -72,3 +72,35 @@ def available_groups(loss_module: nn.Module) -> list[str]:
     """Names of the parameter groups ``loss_module`` provides (``"all"`` always)."""
     out = [g for g in ("actor", "critic") if _group_tensors(loss_module, g)]
     return [*out, "all"]
+
+
+def terms_reaching(terms: Mapping[str, torch.Tensor], params: Sequence[torch.Tensor]) -> list[str]:
+    """Names of the loss terms whose autograd graph reaches at least one of ``params``.
+
+    A term reaches a parameter when back-propagating it would write that parameter's gradient: the walk follows
+    ``grad_fn.next_functions`` down to the ``AccumulateGrad`` leaves (host-side graph inspection only: no
+    backward pass, no device work). E.g. in TorchRL's ``SACLoss`` only ``loss_qvalue`` reaches the Q networks
+    (the actor loss uses detached Q parameters), in ``ClipPPOLoss`` only ``loss_critic`` reaches the critic, and
+    a DQN-style ``loss`` reaches its value network.
+    """
+    targets = {id(p) for p in params}
+    out = []
+    for name, term in terms.items():
+        if not isinstance(term, torch.Tensor) or not term.requires_grad:
+            continue
+        if term.grad_fn is None:  # the term is itself a leaf parameter
+            if id(term) in targets:
+                out.append(name)
+            continue
+        stack, seen = [term.grad_fn], set()
+        while stack:
+            node = stack.pop()
+            if node is None or node in seen:
+                continue
+            seen.add(node)
+            variable = getattr(node, "variable", None)  # AccumulateGrad nodes hold their leaf
+            if variable is not None and id(variable) in targets:
+                out.append(name)
+                break
+            stack.extend(next_node for next_node, _ in node.next_functions)
+    return out

@@ -4,9 +4,10 @@ A wrapper holds an inner :class:`~torchrl.objectives.LossModule` run with ``redu
 wrapper sets it). From the per-sample ``loss_*`` terms and the batch's ``task_id`` it forms
 
 * ``M``: the *manipulated* terms, per task (masked means, ``[K]``), for the parameter group ``params``:
-  ``"critic"`` -> ``loss_critic`` on the critic parameters (MTBench's PPO configs),
-  ``"actor"`` -> every other ``loss_*`` term on the actor parameters,
-  ``"all"`` -> the sum of all ``loss_*`` terms on all parameters;
+  ``"critic"`` -> the terms whose graph reaches the critic parameters (``loss_critic`` of PPO, ``loss_qvalue``
+  of SAC, ``loss`` of a DQN-style loss) on the critic parameters (MTBench's PPO configs),
+  ``"actor"`` -> the other terms that reach the actor parameters, on the actor parameters,
+  ``"all"`` -> the sum of all loss terms on all parameters;
 * ``P``: the remaining (plain) terms, averaged over the batch as the inner loss would with ``"mean"``.
 
 :meth:`backward` writes ``.grad`` on every inner parameter: the group gets ``method(M) + d mean(P)``, the
@@ -27,7 +28,8 @@ from tensordict.utils import NestedKey
 from torch import nn
 from torchrl.objectives import LossModule
 
-from .param_groups import PARAM_GROUPS, resolve_param_group
+from .gradients import is_loss_key
+from .param_groups import PARAM_GROUPS, available_groups, resolve_param_group, terms_reaching
 from .per_task import check_task_ids, flat_task_ids, per_sample, task_counts, task_means, weighted_mean
 from .task_gradients import cosine_stats, gram, grads_or_zeros, per_task_gradients, unflatten
 
@@ -44,9 +46,10 @@ class TaskLosses:
         weights: torch.Tensor | None,
         num_tasks: int,
     ) -> None:
-        self.names = [k for k in out.keys() if isinstance(k, str) and k.startswith("loss_")]
+        self.names = [k for k in out.keys() if is_loss_key(k)]
         if not self.names:
-            raise ValueError(f"the wrapped loss returned no 'loss_*' entry; keys: {list(out.keys())}")
+            raise ValueError(f"the wrapped loss returned no 'loss' or 'loss_*' entry; keys: {list(out.keys())}")
+        self.terms = {k: out.get(k) for k in self.names}  # as the loss returned them (graph inspection)
         n = task_id.numel()
         terms = [per_sample(out.get(k), n, k) for k in self.names]
         dtype = terms[0].dtype
@@ -82,15 +85,20 @@ class TaskGradientWrapper(LossModule):
     """Common machinery of :class:`PCGrad`, :class:`CAGrad`, :class:`FAMO` and :class:`GradientDiagnostics`.
 
     Args:
-        loss_module: a TorchRL ``LossModule`` whose ``reduction="none"`` output holds per-sample ``loss_*``
-            entries (``ClipPPOLoss``, mtbench's ``MTPPOLoss``/``MTGRPOLoss``, ...). Its ``reduction`` is set to
-            ``"none"``.
+        loss_module: a TorchRL ``LossModule`` whose ``reduction="none"`` output holds per-sample loss terms
+            (``loss_*`` or ``loss`` entries: ``ClipPPOLoss``, ``SACLoss``, a DQN-style loss, mtbench's
+            ``MTPPOLoss``/``MTGRPOLoss``/``MTSACLoss``, ...). Its ``reduction`` is set to ``"none"``.
         num_tasks: K.
         params: manipulated parameter group, ``"critic"`` (default, MTBench's PPO configs), ``"actor"`` or
             ``"all"``.
         diagnostics_every: compute the pairwise cosine similarities of the per-task actor and critic
             gradients every this many updates (0 = never); see :meth:`backward`.
-        critic_keys: the loss terms that belong to the critic.
+        critic_keys: the loss terms that belong to the critic. ``None`` (default): found from the parameter
+            groups -- the terms whose autograd graph reaches the critic parameters (``loss_critic`` of PPO,
+            ``loss_qvalue`` of SAC, ``loss`` of a DQN-style loss); the actor terms are the other terms that reach
+            the actor parameters; terms that reach neither (e.g. SAC's ``loss_alpha``) are never manipulated
+            (except with ``params="all"``). A sequence of names fixes the critic terms instead (the actor terms
+            are then all the others).
         task_loss_scale: factor applied to the per-task manipulated losses before the method (MTBench's
             PCGrad/CAGrad per-task critic losses omit rl_games' ``0.5 * critic_coef``: use ``1 / (0.5 *
             critic_coef)`` to reproduce their gradient scale exactly).
@@ -117,7 +125,7 @@ class TaskGradientWrapper(LossModule):
         *,
         params: str = "critic",
         diagnostics_every: int = 0,
-        critic_keys: Sequence[str] = ("loss_critic",),
+        critic_keys: Sequence[str] | None = None,
         task_loss_scale: float = 1.0,
     ) -> None:
         super().__init__()
@@ -135,7 +143,7 @@ class TaskGradientWrapper(LossModule):
         self.num_tasks = int(num_tasks)
         self.params = params
         self.diagnostics_every = int(diagnostics_every)
-        self.critic_keys = tuple(critic_keys)
+        self.critic_keys = None if critic_keys is None else tuple(critic_keys)
         self.task_loss_scale = float(task_loss_scale)
         self.num_updates = 0
         resolve_param_group(loss_module, params)  # validates that the group exists
@@ -152,6 +160,7 @@ class TaskGradientWrapper(LossModule):
                     f"diagnostics need an actor and/or a critic network in {type(loss_module).__name__}; found none"
                 )
         self._last_diagnostics: dict[str, torch.Tensor] = {}
+        self._group_terms: dict[tuple[str, tuple[str, ...]], list[str]] = {}  # found once per term set
 
     # ------------------------------------------------------------------ keys; delegation to the inner loss
     def _inner_declares_task_id(self) -> bool:
@@ -195,12 +204,31 @@ class TaskGradientWrapper(LossModule):
         self.loss_module.value_estimator = value
 
     # ------------------------------------------------------------------ loss terms
-    def _group_term_names(self, group: str, names: Sequence[str]) -> list[str]:
+    def _terms_on(self, group: str, losses: TaskLosses) -> list[str]:
+        """The terms of ``losses`` whose graph reaches the parameters of ``group`` (``[]`` when the loss has no
+        such group); found by graph inspection at the first call, then cached for this set of term names."""
+        key = (group, tuple(losses.names))
+        if key not in self._group_terms:
+            found: list[str] = []
+            if group in available_groups(self.loss_module):
+                found = terms_reaching(losses.terms, resolve_param_group(self.loss_module, group))
+            self._group_terms[key] = found
+        return self._group_terms[key]
+
+    def _group_term_names(self, group: str, losses: TaskLosses) -> list[str]:
+        """The loss terms manipulated for ``group``: ``all`` -> every term; ``critic`` -> the critic terms
+        (``critic_keys``, or the terms that reach the critic parameters); ``actor`` -> the terms other than the
+        critic's that reach the actor parameters (all the others when ``critic_keys`` is given)."""
+        names = losses.names
         if group == "all":
             return list(names)
-        if group == "critic":
-            return [k for k in names if k in self.critic_keys]
-        return [k for k in names if k not in self.critic_keys]
+        if self.critic_keys is not None:
+            critic = [k for k in names if k in self.critic_keys]
+            actor = [k for k in names if k not in critic]
+        else:
+            critic = self._terms_on("critic", losses)
+            actor = [k for k in self._terms_on("actor", losses) if k not in critic]
+        return critic if group == "critic" else actor
 
     def _sample_weights(self, td: TensorDictBase, numel: int) -> torch.Tensor | None:
         keys_fn = getattr(self.loss_module, "_loss_mask_keys", None)
@@ -231,10 +259,13 @@ class TaskGradientWrapper(LossModule):
             ids = torch.where(weights, ids, torch.zeros_like(ids))  # padded rows may hold garbage ids
         check_task_ids(ids, self.num_tasks)
         losses = TaskLosses(out, ids, weights, self.num_tasks)
-        if self.params == "critic" and not any(k in self.critic_keys for k in losses.names):
+        if self.params != "all" and not self._group_term_names(self.params, losses):
+            named = self.critic_keys is not None and self.params == "critic"
+            which = (f"a term named {list(self.critic_keys or ())}" if named
+                     else f"a loss term whose graph reaches the {self.params} parameters")
             raise ValueError(
-                f"params='critic' needs a critic term {list(self.critic_keys)} in the loss output; "
-                f"got {losses.names} (use params='actor' or 'all', or set critic_keys)"
+                f"params={self.params!r} needs {which} in the output of {type(self.loss_module).__name__}; loss "
+                f"terms: {losses.names} (use params='actor' or 'all', or set critic_keys)"
             )
         return losses
 
@@ -298,7 +329,7 @@ class TaskGradientWrapper(LossModule):
         scalars ``grad_cos_{actor,critic}_{mean,min,max}`` (most recent measurement, refreshed every
         ``diagnostics_every`` updates, so the metric keys are the same at every update)."""
         losses = self._task_losses(tensordict)
-        manip_names = self._group_term_names(self.params, losses.names)
+        manip_names = self._group_term_names(self.params, losses)
         plain_names = [k for k in losses.names if k not in manip_names]
         m_task, m_mean = losses.select(manip_names)
         _, p_mean = losses.select(plain_names)
@@ -346,7 +377,7 @@ class TaskGradientWrapper(LossModule):
         gradient matrix when it coincides with one of them (so it is not computed twice)."""
         reuse = None
         for g in self._diag_groups:
-            per_task, _ = losses.select(self._group_term_names(g, losses.names))
+            per_task, _ = losses.select(self._group_term_names(g, losses))
             params = resolve_param_group(self.loss_module, g)
             if per_task is None:
                 stats = torch.full((3,), float("nan"), device=present.device)

@@ -26,8 +26,10 @@ from .config import (
 )
 from .env_factory import make_env_from_cfg
 from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
+from .loop import TrainingLoop
 from .pretraining import load_pretrained
 from .rollout import base_env
+from .sac_builder import build_sac_trainer
 from .trainer import Trainer
 
 
@@ -154,8 +156,12 @@ def load_resume_checkpoint(cfg: DictConfig) -> dict[str, Any] | None:
         raise ValueError(f"resume={cfg.resume}: {err.reason}") from err
 
 
-def build_trainer(cfg: Mapping[str, Any] | DictConfig, env: EnvBase | None = None, logger: Any = None) -> Trainer:
-    """The run of ``cfg`` (``conf/config.yaml`` schema), ready to ``train()``.
+def build_trainer(
+    cfg: Mapping[str, Any] | DictConfig, env: EnvBase | None = None, logger: Any = None
+) -> TrainingLoop:
+    """The run of ``cfg`` (``conf/config.yaml`` schema), ready to ``train()``: a :class:`Trainer` (on-policy:
+    ``loss=ppo|grpo``) or an :class:`~mtbench.trainer.off_policy.OffPolicyTrainer` (``loss=sac``, built by
+    :func:`~mtbench.trainer.sac_builder.build_sac_trainer`).
 
     Validates the config (clear errors before anything is built), seeds, sets ``torch_threads``, fills the run
     paths (``logging.exp_name``/``log_dir``, ``checkpoint.dir``; a resumed run keeps its own), builds the env
@@ -173,11 +179,22 @@ def build_trainer(cfg: Mapping[str, Any] | DictConfig, env: EnvBase | None = Non
     if cfg.get("torch_threads"):
         torch.set_num_threads(int(cfg.torch_threads))
     seed_everything(int(cfg.seed))
+    off_policy = cfg.loss.name == "sac"
     if env is None:
-        effective_minibatch_size(int(cfg.env.num_envs), int(cfg.loss.horizon), int(cfg.loss.minibatch_size))
+        if not off_policy:
+            effective_minibatch_size(int(cfg.env.num_envs), int(cfg.loss.horizon), int(cfg.loss.minibatch_size))
         env = build_env(cfg, device)
     else:
         warn_if_cpu_run_too_big(device, int(env.batch_size.numel()), int(cfg.loss.horizon))
+    if off_policy:
+        trainer: TrainingLoop = build_sac_trainer(
+            cfg, env, device, hooks=build_hooks(cfg, logger),
+            update_module_factory=lambda loss, k: build_gradient_method(cfg.get("grad"), loss, k),
+            total_iterations=total_iterations(cfg, int(env.batch_size.numel()) * int(cfg.loss.horizon)),
+        )
+        if resumed is not None:
+            trainer.load_state_dict(resumed, source=str(cfg.resume))
+        return trainer
     env = add_observation_norm(env, cfg.loss)
     actor, critic = build_networks(cfg, env, device)
     num_tasks = int(base_env(env).num_tasks)

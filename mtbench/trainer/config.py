@@ -13,7 +13,9 @@ from typing import Any, Mapping
 import torch
 from omegaconf import DictConfig, OmegaConf, open_dict
 
-LOSSES = ("ppo", "grpo")
+from ..objectives.sac import ALPHA_LOSSES
+
+LOSSES = ("ppo", "grpo", "sac")
 LR_SCHEDULES = ("fixed", "adaptive")
 LOGGERS = ("mcap", "none")
 PROGRESS_MODES = ("auto", "tqdm", "line", "none")
@@ -76,9 +78,12 @@ def check_config(cfg: DictConfig) -> None:
     _int(ck.get("keep_last", 0), "checkpoint.keep_last", 0, " (0: keep all)")
     lc = cfg.loss
     _choice(lc.get("name"), "loss.name", LOSSES)
-    _choice(lc.get("lr_schedule", "fixed"), "loss.lr_schedule", LR_SCHEDULES)
-    for key in ("horizon", "epochs", "minibatch_size"):
-        _int(lc.get(key), f"loss.{key}", 1)
+    if lc.get("name") == "sac":
+        check_sac_loss(lc)
+    else:
+        _choice(lc.get("lr_schedule", "fixed"), "loss.lr_schedule", LR_SCHEDULES)
+        for key in ("horizon", "epochs", "minibatch_size"):
+            _int(lc.get(key), f"loss.{key}", 1)
     lg = cfg.get("logging") or {}
     _choice(str(lg.get("logger", "mcap")), "logging.logger", LOGGERS)
     _choice(str(lg.get("progress", "auto")), "logging.progress", PROGRESS_MODES)
@@ -101,6 +106,48 @@ def check_config(cfg: DictConfig) -> None:
     if resume is not None and Path(str(resume)).is_dir():
         raise ValueError(f"resume={resume} is a directory; give a checkpoint file written by mtbench (e.g. "
                          f"{Path(str(resume)) / 'checkpoints' / 'last.pt'})")
+
+
+def _number(value: Any, name: str, low: float, high: float = math.inf, *, low_open: bool = False,
+            optional: bool = False) -> None:
+    """``value`` as a finite number in ``[low, high]`` (``(low, high]`` when ``low_open``), else one ``ValueError``."""
+    if value is None and optional:
+        return
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    ok = ok and (value > low if low_open else value >= low) and value <= high
+    if not ok:
+        interval = f"{'(' if low_open else '['}{low}, {high}{']' if math.isfinite(high) else ')'}"
+        raise ValueError(f"{name} must be a number in {interval}{' or null' if optional else ''}; got {value!r}")
+
+
+def check_sac_loss(lc: Any) -> None:
+    """Validate the ``loss=sac`` values (``conf/loss/sac.yaml``): sizes, n-step, learning rates, temperatures."""
+    for key in ("horizon", "gradient_steps_per_iteration", "batch_size", "replay_buffer_size", "nstep"):
+        _int(lc.get(key), f"loss.{key}", 1)
+    _int(lc.get("warmup_steps"), "loss.warmup_steps", 0)
+    _int(lc.get("num_qvalue_nets", 2), "loss.num_qvalue_nets", 1)
+    if lc.batch_size > lc.replay_buffer_size:
+        raise ValueError(f"loss.batch_size={lc.batch_size} must not exceed loss.replay_buffer_size="
+                         f"{lc.replay_buffer_size} (each update samples one batch from the buffer)")
+    _number(lc.get("gamma"), "loss.gamma", 0.0, 1.0, low_open=True)
+    for key in ("actor_lr", "critic_lr", "alpha_lr", "init_alpha"):
+        _number(lc.get(key), f"loss.{key}", 0.0, low_open=True)
+    _number(lc.get("critic_tau"), "loss.critic_tau", 0.0, 1.0, low_open=True)
+    _number(lc.get("target_entropy_coef"), "loss.target_entropy_coef", 0.0)
+    _number(lc.get("max_grad_norm"), "loss.max_grad_norm", 0.0, low_open=True, optional=True)
+    _number(lc.get("adam_eps", 1e-8), "loss.adam_eps", 0.0, low_open=True)
+    if lc.get("normalize_value"):
+        raise ValueError("loss.normalize_value=true is not supported by loss=sac: MTBench's SAC config sets it, but "
+                         "its SAC model never applies the value statistics it creates (no effect to reproduce); "
+                         "remove it")
+    _choice(lc.get("alpha_loss"), "loss.alpha_loss", ALPHA_LOSSES)
+    for key in ("learnable_temperature", "disentangled_alpha", "normalize_input", "replay_in_checkpoint"):
+        if not isinstance(lc.get(key), bool):
+            raise ValueError(f"loss.{key} must be true or false; got {lc.get(key)!r}")
+    bounds = lc.get("log_std_bounds")
+    if not (OmegaConf.is_list(bounds) or isinstance(bounds, (list, tuple))) or len(bounds) != 2 or not all(
+            isinstance(b, (int, float)) and not isinstance(b, bool) for b in bounds) or not bounds[0] < bounds[1]:
+        raise ValueError(f"loss.log_std_bounds must be [min, max] with min < max; got {bounds!r}")
 
 
 def effective_minibatch_size(num_envs: int, horizon: int, minibatch_size: int) -> int:
@@ -198,6 +245,7 @@ __all__ = [
     "PROGRESS_MODES",
     "as_config",
     "check_config",
+    "check_sac_loss",
     "effective_minibatch_size",
     "hydra_output_dir",
     "resolve_device",

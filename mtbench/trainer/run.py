@@ -13,8 +13,8 @@ from omegaconf import DictConfig, open_dict
 from .builder import build_trainer
 from .config import LOGGERS, as_config, check_config
 from .hooks import Checkpointer, MetricsLogger, NonFiniteGuard
+from .loop import TrainingLoop
 from .pretraining import needs_flat_stage, pretrain_flat
-from .trainer import Trainer
 
 CPU_ENV_PRESET = "cpu_small"
 CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
@@ -90,7 +90,7 @@ def _close_logger(logger: Any) -> None:
         close()
 
 
-def train_stage(cfg: DictConfig, env: Any = None) -> Trainer:
+def train_stage(cfg: DictConfig, env: Any = None) -> TrainingLoop:
     """Build one run (:func:`~mtbench.trainer.builder.build_trainer`), attach the logger, train, close the env and
     the logger, print the per-task table; returns the trainer."""
     trainer = build_trainer(cfg, env=env)
@@ -101,8 +101,7 @@ def train_stage(cfg: DictConfig, env: Any = None) -> Trainer:
     print(
         f"mtbench | {cfg.loss.name} arch={cfg.arch.name} grad={cfg.grad.name} env={cfg.env.name} "
         f"tasks={trainer.num_tasks} envs={trainer.num_envs} horizon={trainer.horizon} device={trainer.env.device} | "
-        f"{trainer.total_iterations} iterations x {trainer.frames_per_batch:,} frames "
-        f"({trainer.epochs} epochs x {trainer.num_minibatches} minibatches of {trainer.minibatch_size:,}) | "
+        f"{trainer.total_iterations} iterations x {trainer.frames_per_batch:,} frames ({trainer.update_summary()}) | "
         f"run {cfg.logging.exp_name}",
         flush=True,
     )
@@ -126,7 +125,7 @@ def train_stage(cfg: DictConfig, env: Any = None) -> Trainer:
     return trainer
 
 
-def run(cfg: DictConfig, env: Any = None) -> Trainer | None:
+def run(cfg: DictConfig, env: Any = None) -> TrainingLoop | None:
     """Train the run of ``cfg``. A Parkour run without ``pretrained=`` first pre-trains on flat ground (or reuses
     the pre-training of its architecture; :mod:`~mtbench.trainer.pretraining`), then fine-tunes from it. Returns the
     trainer of the last stage that ran, ``None`` when a stop request ended the pre-training."""

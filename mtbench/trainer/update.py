@@ -3,7 +3,7 @@ with hook points, metrics summed on the device, optionally replayed from a CUDA 
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Iterable, Mapping, Sequence
 
 import torch
 from tensordict import TensorDictBase
@@ -17,18 +17,24 @@ HookCaller = Callable[[str, TensorDictBase], None]
 
 class MinibatchUpdate:
     """One optimisation step per minibatch: ``zero_grad`` -> ``compute_gradients(update_module, minibatch)``
-    (``update_module.backward`` for the gradient methods, else the sum of the ``loss_*`` terms) -> global
-    grad-norm clip -> hooks ``before_optimizer_step`` -> ``optimizer.step()`` -> hooks ``on_update``.
+    (``update_module.backward`` for the gradient methods, else the sum of the ``loss_*`` terms) -> grad-norm
+    clip (global, or per parameter group) -> hooks ``before_optimizer_step`` -> ``optimizer.step()`` ->
+    ``after_step()`` (e.g. a soft target-network update) -> hooks ``on_update``.
 
     The scalar metrics of every update are stacked into one device vector (key order fixed by the first update)
-    and summed over :meth:`epochs`; nothing is read back to the host. With ``graph=True`` (CUDA) the whole step
-    is captured once, after 3 eager warm-up updates on a side stream, and replayed; every minibatch is gathered
+    and summed over :meth:`epochs` (minibatches of a rollout) or :meth:`run` (any sequence of batches, e.g. replay
+    samples); nothing is read back to the host. With ``graph=True`` (CUDA) the whole step of :meth:`epochs` is
+    captured once, after 3 eager warm-up updates on a side stream, and replayed; every minibatch is gathered
     into static buffers with ``index_select``.
 
     Args:
         update_module: the loss, or the gradient-method wrapper around it.
         optimizer: over the parameters to update (fused Adam with ``capturable=True`` for ``graph=True``).
-        max_grad_norm: global grad-norm clip (``None``: no clip, the norm is still reported as ``grad_norm``).
+        max_grad_norm: grad-norm clip (``None``: no clip, the norm is still reported as ``grad_norm``).
+        clip_groups: clip each named group of parameters separately to ``max_grad_norm`` (e.g. SAC's actor, Q
+            networks and temperatures, as MTBench clips each of its optimizers) and report their norms as
+            ``grad_norm_<name>``; ``None``: one global clip over all the optimizer's parameters.
+        after_step: called after every ``optimizer.step()`` (inside the captured step with ``graph=True``).
         call_hooks: ``call_hooks(point, metrics)`` runs the hooks of ``point`` (``"before_optimizer_step"``,
             ``"on_update"``); they must be graph-safe.
         graph: replay the update from a CUDA graph.
@@ -44,11 +50,15 @@ class MinibatchUpdate:
         call_hooks: HookCaller,
         graph: bool = False,
         device: torch.device | str = "cpu",
+        clip_groups: Mapping[str, Sequence[torch.Tensor]] | None = None,
+        after_step: Callable[[], None] | None = None,
     ) -> None:
         self.update_module = update_module
         self.optimizer = optimizer
         self.params = [p for group in optimizer.param_groups for p in group["params"]]
         self.max_grad_norm = max_grad_norm
+        self.clip_groups = None if clip_groups is None else {k: list(v) for k, v in clip_groups.items()}
+        self.after_step = after_step
         self.call_hooks = call_hooks
         self.graph = bool(graph)
         self.device = torch.device(device)
@@ -72,17 +82,32 @@ class MinibatchUpdate:
         """One update on ``minibatch``; returns its metrics (detached device tensors, ``grad_norm`` added)."""
         self.optimizer.zero_grad(set_to_none=True)
         out = compute_gradients(self.update_module, minibatch)
-        if self.max_grad_norm is not None:
-            grad_norm = torch.nn.utils.clip_grad_norm_(self.params, self.max_grad_norm)
+        group_norms: dict[str, torch.Tensor] = {}
+        if self.clip_groups is not None:
+            for name, params in self.clip_groups.items():
+                group_norms[name] = self._clip(params)
+            grad_norm = torch.linalg.vector_norm(torch.stack(list(group_norms.values())))
         else:
-            grads = [p.grad for p in self.params if p.grad is not None]
-            grad_norm = torch.linalg.vector_norm(torch.stack([torch.linalg.vector_norm(g) for g in grads]))
+            grad_norm = self._clip(self.params)
         metrics = out.select(*[k for k in out.keys() if isinstance(k, str)]).clone(False)
         metrics.set("grad_norm", grad_norm.detach())
+        for name, norm in group_norms.items():
+            metrics.set(f"grad_norm_{name}", norm.detach())
         self.call_hooks("before_optimizer_step", metrics)
         self.optimizer.step()
+        if self.after_step is not None:
+            self.after_step()
         self.call_hooks("on_update", metrics)
         return metrics
+
+    def _clip(self, params: Sequence[torch.Tensor]) -> torch.Tensor:
+        """Clip the gradients of ``params`` to ``max_grad_norm`` (if set); their norm before clipping."""
+        if self.max_grad_norm is not None:
+            return torch.nn.utils.clip_grad_norm_(params, self.max_grad_norm)
+        grads = [torch.linalg.vector_norm(p.grad) for p in params if p.grad is not None]
+        if not grads:
+            return torch.zeros((), device=self.device)
+        return torch.linalg.vector_norm(torch.stack(grads))
 
     def _vector(self, metrics: TensorDictBase) -> torch.Tensor:
         if self.metric_keys is None:
@@ -117,6 +142,22 @@ class MinibatchUpdate:
                 total = vector.clone() if total is None else total.add_(vector)
         count = epochs * num_minibatches
         assert total is not None and self.metric_keys is not None
+        return {k: total[j] / count for j, k in enumerate(self.metric_keys)}, count
+
+    def run(self, batches: Iterable[TensorDictBase]) -> tuple[dict[str, torch.Tensor], int]:
+        """One eager update per batch of ``batches`` (e.g. replay samples, drawn lazily so that each update sees
+        the parameters of the previous one). Returns ``({key: per-update mean}, number of updates)`` (device
+        tensors; ``({}, 0)`` for no batch)."""
+        if self.graph:
+            raise ValueError("MinibatchUpdate.run replays no CUDA graph; build the updater with graph=False")
+        total: torch.Tensor | None = None
+        count = 0
+        for batch in batches:
+            vector = self._vector(self.step(batch))
+            total = vector.clone() if total is None else total.add_(vector)
+            count += 1
+        if total is None or self.metric_keys is None:
+            return {}, 0
         return {k: total[j] / count for j, k in enumerate(self.metric_keys)}, count
 
 

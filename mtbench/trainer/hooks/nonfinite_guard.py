@@ -8,7 +8,7 @@ from typing import Any
 import torch
 from tensordict import TensorDictBase
 
-from ...objectives.gradients import total_loss
+from ...objectives.gradients import is_loss_key, total_loss
 from .base import TrainerHook
 
 
@@ -16,7 +16,8 @@ class NonFiniteGuard(TrainerHook):
     """A minibatch update whose total loss or gradient norm is not finite is skipped *on the device*: the
     optimizer's ``found_inf`` flag (honoured by fused Adam) leaves parameters and moments untouched, without a
     host sync. The update's metric ``skipped`` (1/0) is added for the other hooks (the adaptive learning rate
-    does not move on a skipped update). Per iteration: ``train/skipped_updates`` (count),
+    does not move on a skipped update). Per iteration (``trainer.updates_per_iteration`` updates; an iteration
+    without updates counts neither way): ``train/skipped_updates`` (count),
     ``train/skipped_updates_total``, a ``RuntimeWarning``; after ``max_streak`` consecutive iterations in which
     every update was skipped, ``RuntimeError``.
 
@@ -42,7 +43,7 @@ class NonFiniteGuard(TrainerHook):
 
     def before_optimizer_step(self, trainer: Any, metrics: TensorDictBase) -> None:
         finite = torch.isfinite(metrics["grad_norm"])
-        if any(isinstance(k, str) and k.startswith("loss_") for k in metrics.keys()):
+        if any(is_loss_key(k) for k in metrics.keys()):
             finite = finite & torch.isfinite(total_loss(metrics))
         skipped = (~finite).to(torch.float32)
         trainer.optimizer.found_inf = skipped
@@ -50,6 +51,10 @@ class NonFiniteGuard(TrainerHook):
 
     def on_iteration_end(self, trainer: Any, metrics: dict[str, float]) -> None:
         updates = trainer.updates_per_iteration
+        if updates == 0:  # an iteration without updates (an off-policy loop's warm-up) leaves the streak as it is
+            metrics["train/skipped_updates"] = 0.0
+            metrics["train/skipped_updates_total"] = float(self.skipped_total)
+            return
         skipped = int(round(metrics.pop("train/skipped", 0.0) * updates))
         self.skipped_total += skipped
         self.streak = self.streak + 1 if skipped == updates else 0

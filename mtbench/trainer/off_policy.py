@@ -1,0 +1,213 @@
+"""Off-policy multi-task training loop (MT-SAC, or any TorchRL loss trained from replayed transitions) over a
+native-autoreset env, with an on-device replay buffer."""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from typing import Any, Iterator, Mapping, Sequence
+
+import torch
+from omegaconf import DictConfig
+from tensordict import TensorDictBase
+from torch import nn
+from torchrl.envs import EnvBase
+from torchrl.objectives import LossModule
+
+from ..objectives.nstep import NStepTransitions
+from .hooks import TrainerHook
+from .loop import TrainingLoop, observation_norm
+from .replay import load_replay_state_dict, make_replay_buffer, normalize_observations, replay_state_dict
+from .exploration import ExplorationPolicy
+from .update import MinibatchUpdate
+
+#: root entry where the env transform keeps the raw observation next to the normalised one (see
+#: ``mtbench.trainer.sac_builder.add_observation_norm_keep_raw``)
+RAW_OBSERVATION_KEY = "observation_raw"
+
+
+class OffPolicyTrainer(TrainingLoop):
+    """The off-policy loop, top to bottom (LeanRL / CleanRL style); everything else is a hook.
+
+    One iteration (MTBench ``MTSACAgent.play_steps``):
+
+    1. **collect**: ``horizon`` x (``policy(td)``, ``env.step_and_maybe_reset(td)``) of every world with the
+       stochastic actor -- uniform random actions during the first ``warmup_steps`` env steps, rounded up to
+       whole iterations (MTBench's ``num_warmup_steps``) -- through the same
+       :class:`~mtbench.trainer.rollout.Rollout` as the on-policy loop; ``env.pop_episode_stats()`` feeds the
+       per-task success window;
+    2. **n-step transitions** of the new steps (:class:`~mtbench.objectives.nstep.NStepTransitions`: the last
+       ``nstep - 1`` steps are carried over to the next iteration; the returns stop at the first ``done`` and
+       bootstrap on truncation), with the *raw* observations;
+    3. **extend** the on-device replay buffer (:mod:`mtbench.trainer.replay`);
+    4. **update** (after the warm-up): ``gradient_steps`` x (sample ``batch_size`` transitions, normalise their
+       observations with the current per-task statistics, ``loss`` -- or the gradient method's ``backward`` --,
+       clip each parameter group, optimizer step, soft target-network update) through
+       :class:`~mtbench.trainer.update.MinibatchUpdate`; one host read of the summed metrics per iteration.
+
+    Args:
+        env: batched env with the mtbench contract and native autoreset, possibly a ``TransformedEnv``; with a
+            ``PerTaskObservationNorm`` transform, the raw observation must also be kept under
+            ``raw_observation_key`` (the buffer stores raw observations).
+        actor: the stochastic actor (writes ``action``).
+        loss: a TorchRL loss for replayed transitions (``MTSACLoss``, ``SACLoss``, ...).
+        optimizer: over the parameters to train (fused Adam for the non-finite guard).
+        horizon: env steps of every world per iteration (MTBench: 1).
+        gradient_steps: updates per iteration (MTBench ``gradient_steps_per_itr``).
+        batch_size: transitions per update.
+        replay_buffer_size: capacity of the replay buffer (transitions).
+        nstep, gamma: n-step returns (``gamma`` must be the loss's discount).
+        warmup_steps: env steps with uniform random actions before the first update.
+        total_iterations: length of the run.
+        target_update: called after every optimizer step (``torchrl.objectives.SoftUpdate(loss, tau=...).step``);
+            ``None``: no target network.
+        update_module: what produces the gradients (a gradient-method wrapper of ``loss``); ``loss`` by default.
+        max_grad_norm: grad-norm clip (``None``: none), applied to each of ``clip_groups`` separately when given.
+        clip_groups: named parameter groups clipped separately (``None``: one global clip).
+        hooks: called in the given order at each point.
+        success_window: iterations pooled for the per-task success rate.
+        replay_in_checkpoint: save the buffer's content in checkpoints (exact resume); ``False`` keeps
+            checkpoints small, and a resumed run refills the buffer from scratch.
+        raw_observation_key: root entry holding the raw observation when the env normalises ``observation``.
+        config: the run's config (recorded in checkpoints and logs; checked on resume).
+    """
+
+    resume_keys = (*TrainingLoop.resume_keys, "loss.nstep", "loss.replay_buffer_size")
+
+    def __init__(
+        self,
+        env: EnvBase,
+        actor: nn.Module,
+        loss: LossModule,
+        optimizer: torch.optim.Optimizer,
+        *,
+        horizon: int,
+        gradient_steps: int,
+        batch_size: int,
+        replay_buffer_size: int,
+        nstep: int,
+        gamma: float,
+        warmup_steps: int = 0,
+        total_iterations: int,
+        target_update: Any = None,
+        update_module: nn.Module | None = None,
+        max_grad_norm: float | None = None,
+        clip_groups: Mapping[str, Sequence[torch.Tensor]] | None = None,
+        hooks: Sequence[TrainerHook] = (),
+        success_window: int = 5,
+        replay_in_checkpoint: bool = True,
+        raw_observation_key: str = RAW_OBSERVATION_KEY,
+        config: DictConfig | None = None,
+    ) -> None:
+        if not (isinstance(gradient_steps, int) and gradient_steps >= 1):
+            raise ValueError(f"loss.gradient_steps_per_iteration must be an integer >= 1; got {gradient_steps!r}")
+        if not (isinstance(warmup_steps, int) and warmup_steps >= 0):
+            raise ValueError(f"loss.warmup_steps must be an integer >= 0; got {warmup_steps!r}")
+        super().__init__(
+            env, ExplorationPolicy(actor, env.action_spec), loss, optimizer, horizon=horizon,
+            total_iterations=total_iterations, update_module=update_module, hooks=hooks,
+            success_window=success_window, config=config,
+        )
+        self.actor = actor
+        self.gradient_steps = gradient_steps
+        self.batch_size = batch_size
+        self.replay = make_replay_buffer(replay_buffer_size, batch_size, env.device)
+        self.replay_in_checkpoint = bool(replay_in_checkpoint)
+        self.norm = observation_norm(env)
+        if self.norm is not None and raw_observation_key not in env.observation_spec.keys():
+            raise ValueError(f"the env normalises 'observation' but keeps no raw copy under {raw_observation_key!r}: "
+                             "the replay buffer stores raw observations (use add_observation_norm_keep_raw)")
+        self._stored_observation_key = raw_observation_key if self.norm is not None else "observation"
+        self.nstep = NStepTransitions(nstep, gamma, observation_keys=(self._stored_observation_key,))
+        self.warmup_iterations = math.ceil(warmup_steps / self.horizon)
+        self.updates_per_iteration = 0  # of the current iteration (0 during the warm-up)
+        device = next(iter(self.optimizer.param_groups[0]["params"])).device
+        self.updater = MinibatchUpdate(
+            self.update_module, optimizer, max_grad_norm=max_grad_norm, clip_groups=clip_groups,
+            call_hooks=self._call, after_step=target_update, device=device,
+        )
+
+    def update_summary(self) -> str:
+        """What one iteration's update does, for the front door's banner."""
+        return (f"{self.gradient_steps} updates of {self.batch_size:,} replayed {self.nstep.n}-step transitions, "
+                f"buffer {self.replay.storage.max_size:,}, {self.warmup_iterations} warm-up iterations")
+
+    # ------------------------------------------------------------------ one iteration
+    def transitions(self, data: TensorDictBase) -> TensorDictBase | None:
+        """2. The n-step transitions of the new env steps, with the raw observations under ``observation``."""
+        out = self.nstep(data)
+        if out is not None and self._stored_observation_key != "observation":
+            for prefix in ((), ("next",)):
+                out.rename_key_((*prefix, self._stored_observation_key), (*prefix, "observation"))
+        return out
+
+    def sample(self) -> TensorDictBase:
+        """A replay batch with its observations normalised by the current per-task statistics."""
+        return normalize_observations(self.replay.sample(), self.norm)
+
+    def update(self, count: int) -> dict[str, torch.Tensor]:
+        """4. ``count`` updates on fresh replay samples; per-update means of the scalar metrics (device tensors)."""
+        batches: Iterator[TensorDictBase] = (self.sample() for _ in range(count))
+        means, done = self.updater.run(batches)
+        self.updates += done
+        return means
+
+    def train_iteration(self) -> dict[str, float] | None:
+        """One iteration; returns its metrics (``None``: a stop request interrupted the rollout)."""
+        self._call("on_iteration_start")
+        learning = self.iteration >= self.warmup_iterations
+        self.policy.random = not learning  # warm-up: uniform random actions
+        t0 = time.perf_counter()
+        data, stats = self.collect()  # 1. collect
+        if data is None or stats is None:
+            return None
+        env_totals = self._record_episodes(stats)  # device -> host copy: also ends the collection timing on GPU
+        t1 = time.perf_counter()
+        transitions = self.transitions(data)  # 2. n-step transitions
+        if transitions is not None:
+            self.replay.extend(transitions)  # 3. into the buffer
+        self.updates_per_iteration = self.gradient_steps if learning and len(self.replay) else 0
+        means = self.update(self.updates_per_iteration)  # 4. updates
+        alphas = getattr(self.loss, "alphas", None)  # per-task temperatures (MT-SAC), logged per task
+        per_task = alphas is not None and alphas.numel() == self.num_tasks
+        names = list(means)
+        parts = [torch.stack([means[k].float() for k in names])] if names else []
+        if per_task:
+            parts.append(alphas.float().reshape(-1))
+        values = torch.cat(parts).tolist() if parts else []  # the iteration's only host sync of the update
+        t2 = time.perf_counter()
+        self.iteration += 1
+        self.frames += self.frames_per_batch
+        metrics: dict[str, float] = {
+            "iteration": float(self.iteration),
+            "frames": float(self.frames),
+            **self._timing(t0, t1, t2, self.frames_per_batch),
+        }
+        for i, group in enumerate(self.optimizer.param_groups):
+            metrics[f"train/lr_{group.get('name', i)}"] = float(group["lr"])
+        metrics["train/replay_size"] = float(len(self.replay))
+        metrics.update(self._named_update_metrics(dict(zip(names, values))))
+        if per_task:
+            for name, value in zip(self.task_names, values[len(names):]):
+                metrics[f"alpha/{name}"] = value
+        metrics.update(self.window.summary())
+        metrics.update(env_totals)
+        self._call("on_iteration_end", metrics)
+        return metrics
+
+    # ------------------------------------------------------------------ checkpointing
+    def _extra_state(self) -> dict[str, Any]:
+        """The n-step carry and (unless ``replay_in_checkpoint`` is off) the replay buffer's content."""
+        return {"nstep": self.nstep.state_dict(),
+                "replay": replay_state_dict(self.replay) if self.replay_in_checkpoint else None}
+
+    def _load_extra_state(self, state: dict[str, Any], source: str | os.PathLike[str]) -> None:
+        self.nstep.load_state_dict(state["nstep"], self.env.device)
+        if state.get("replay") is not None:
+            load_replay_state_dict(self.replay, state["replay"], self.env.device)
+        else:
+            self.replay.empty()  # saved without its buffer: refilled from here on
+
+
+__all__ = ["OffPolicyTrainer", "RAW_OBSERVATION_KEY"]
