@@ -207,6 +207,9 @@ def test_pending_group_is_selected_once_the_library_has_it(tmp_path, tables):
     library's keys underneath, the row's values on top; keys the library lacks are reported."""
     conf = tmp_path / "conf"
     shutil.copytree(CONF_DIR, conf)
+    (conf / "loss" / "sac.yaml").unlink(missing_ok=True)  # a library without loss=sac: the row gives it inline
+    row_file = conf / "paper" / "efficiency" / "mt10_rand_sac.yaml"
+    row_file.write_text(row_file.read_text().replace("override /loss: sac", "override /loss: null"))
     row = load_table("efficiency", conf, rows=["mt10_rand_sac"])[0]
     assert "loss=sac" not in group_overrides(row, conf)
     (conf / "loss" / "sac.yaml").write_text("name: sac\nhorizon: 1\nbatch_size: 256\ntau_extra: 3\nactor_lr: 1.0\n")
