@@ -62,8 +62,8 @@ class MetaWorldEnv(EnvBase):
             collision meshes; much cheaper contacts on the GPU) or ``"mesh"`` (Menagerie's convex meshes).
         box_box_collider: ``"primitive"`` (MuJoCo C's box-box routine) or ``"gjk"`` (MuJoCo Warp's default
             GJK/EPA); see :class:`~mtbench.sim.WarpSim`.
-        reward_version: ``"paper"`` (the paper-era MTBench rewards, default) or ``"v2"`` (mtbench's redesigned
-            rewards for the tasks MT-PPO cannot learn from the paper-era ones; see ``docs/metaworld.md``).
+        reward_version: ``"paper"`` (the paper-era MTBench rewards with the original's ``tolerance``, default) or
+            ``"v2"`` (the same formulas with Meta-World's correct ``tolerance``; see ``docs/metaworld.md``).
     """
 
     _torchrl_native_autoreset = True
