@@ -436,6 +436,40 @@ def test_pcgrad_wrapper_critic_only_and_actor_plain_mean():
     assert not torch.allclose(got_critic, grads_of(critic), atol=1e-4)  # the critic gradient was changed
 
 
+def test_failed_batched_backward_is_not_retried(monkeypatch):
+    """Where the batched backward has no batching rule (e.g. compiled networks), the wrapper warns once, uses K
+    passes and does not retry the batched pass at later updates; the gradients are those of the batched path."""
+    k = 3
+    ids = balanced_ids(k, 16)
+    reference = make_loss()
+    torch.manual_seed(2)
+    compute_gradients(PCGrad(reference, k, seed=11), make_batch(reference.actor_network, ids))
+    expected = grads_of(resolve_param_group(reference, "critic"))
+
+    real_grad = torch.autograd.grad
+    batched_calls = []
+
+    def no_batching_rule(*args, **kwargs):
+        if kwargs.get("is_grads_batched"):
+            batched_calls.append(1)
+            raise RuntimeError("Batching rule not implemented for aten::mm.out")
+        return real_grad(*args, **kwargs)
+
+    monkeypatch.setattr(torch.autograd, "grad", no_batching_rule)
+    monkeypatch.setattr("mtbench.objectives.task_gradients._BATCHED_FALLBACK_WARNED", False)
+    loss = make_loss()
+    wrapper = PCGrad(loss, k, seed=11)
+    td = make_batch(loss.actor_network, ids)
+    torch.manual_seed(2)
+    with pytest.warns(RuntimeWarning, match="separate backward passes"):
+        compute_gradients(wrapper, td)
+    assert torch.allclose(grads_of(resolve_param_group(loss, "critic")), expected, atol=1e-6)
+    assert wrapper.batched_backward is False and len(batched_calls) == 1
+    zero_grads(loss)
+    compute_gradients(wrapper, td)
+    assert len(batched_calls) == 1  # not retried
+
+
 def test_params_all_and_actor_groups():
     k = 3
     loss = make_loss()

@@ -20,6 +20,40 @@ def grads_or_zeros(
     return [torch.zeros_like(p) if g is None else g for p, g in zip(params, grads)]
 
 
+def batched_per_task_gradients(task_losses: torch.Tensor, params: Sequence[torch.Tensor]) -> torch.Tensor | None:
+    """Gradients of each of the ``K`` entries of ``task_losses`` w.r.t. ``params`` as a ``[K, P]`` matrix, in one
+    call ``torch.autograd.grad(task_losses, params, grad_outputs=eye(K), is_grads_batched=True)`` (vmap over the
+    backward pass; the graph is retained). ``None`` (with a warning, once per process) when an operation in the
+    graph has no batching rule, e.g. the backward of a ``torch.compile``d network. Rows of tasks that do not reach
+    a parameter are zero."""
+    global _BATCHED_FALLBACK_WARNED
+    params = list(params)
+    k = task_losses.numel()
+    if not task_losses.requires_grad:
+        return task_losses.new_zeros(k, sum(p.numel() for p in params))
+    eye = torch.eye(k, dtype=task_losses.dtype, device=task_losses.device)
+    try:
+        grads = torch.autograd.grad(
+            task_losses.reshape(k), params, grad_outputs=eye, is_grads_batched=True, retain_graph=True,
+            allow_unused=True,
+        )
+    except RuntimeError as err:  # an op without a vmap rule in the backward graph
+        if not _BATCHED_FALLBACK_WARNED:
+            warnings.warn(
+                f"batched per-task backward (is_grads_batched=True) is not possible for this loss ({err}); using "
+                f"{k} separate backward passes",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            _BATCHED_FALLBACK_WARNED = True
+        return None
+    rows = [
+        torch.zeros(k, p.numel(), dtype=p.dtype, device=p.device) if g is None else g.reshape(k, -1)
+        for p, g in zip(params, grads)
+    ]
+    return torch.cat(rows, dim=1)
+
+
 def per_task_gradients(
     task_losses: torch.Tensor,
     params: Sequence[torch.Tensor],
@@ -29,42 +63,20 @@ def per_task_gradients(
 ) -> torch.Tensor:
     """Gradients of each of the ``K`` entries of ``task_losses`` w.r.t. ``params``, as a ``[K, P]`` matrix.
 
-    One call ``torch.autograd.grad(task_losses, params, grad_outputs=eye(K), is_grads_batched=True)``
-    (vmap over the backward pass). If an operation in the graph has no batching rule the call raises; the
-    function then warns once and falls back to ``K`` separate backward passes (same result, slower).
-    ``batched=False`` forces the loop. Rows of tasks that do not reach a parameter are zero.
+    One batched backward pass (:func:`batched_per_task_gradients`); where that is not possible, or with
+    ``batched=False``, ``K`` separate backward passes (same result, slower). Rows of tasks that do not reach a
+    parameter are zero.
     """
-    global _BATCHED_FALLBACK_WARNED
     params = list(params)
     k = task_losses.numel()
-    numel = sum(p.numel() for p in params)
-    if not task_losses.requires_grad:
-        return task_losses.new_zeros(k, numel)
-    task_losses = task_losses.reshape(k)
-    grads: Sequence[torch.Tensor | None] | None = None
     if batched:
-        eye = torch.eye(k, dtype=task_losses.dtype, device=task_losses.device)
-        try:
-            grads = torch.autograd.grad(
-                task_losses, params, grad_outputs=eye, is_grads_batched=True, retain_graph=True, allow_unused=True
-            )
-        except RuntimeError as err:  # an op without a vmap rule in the backward graph
-            if not _BATCHED_FALLBACK_WARNED:
-                warnings.warn(
-                    f"batched per-task backward (is_grads_batched=True) failed ({err}); falling back to "
-                    f"{k} separate backward passes",
-                    RuntimeWarning,
-                    stacklevel=2,
-                )
-                _BATCHED_FALLBACK_WARNED = True
-            grads = None
-    if grads is not None:
-        rows = [
-            torch.zeros(k, p.numel(), dtype=p.dtype, device=p.device) if g is None else g.reshape(k, -1)
-            for p, g in zip(params, grads)
-        ]
-        return torch.cat(rows, dim=1)
-    out = task_losses.new_zeros(k, numel)
+        grads = batched_per_task_gradients(task_losses, params)
+        if grads is not None:
+            return grads
+    if not task_losses.requires_grad:
+        return task_losses.new_zeros(k, sum(p.numel() for p in params))
+    task_losses = task_losses.reshape(k)
+    out = task_losses.new_zeros(k, sum(p.numel() for p in params))
     for i in range(k):
         keep = retain_graph or i < k - 1
         out[i] = flatten(grads_or_zeros(task_losses[i], params, retain_graph=keep))

@@ -31,7 +31,14 @@ from torchrl.objectives import LossModule
 from .gradients import is_loss_key
 from .param_groups import PARAM_GROUPS, available_groups, resolve_param_group, terms_reaching
 from .per_task import check_task_ids, flat_task_ids, per_sample, task_counts, task_means, weighted_mean
-from .task_gradients import cosine_stats, gram, grads_or_zeros, per_task_gradients, unflatten
+from .task_gradients import (
+    batched_per_task_gradients,
+    cosine_stats,
+    gram,
+    grads_or_zeros,
+    per_task_gradients,
+    unflatten,
+)
 
 DIAGNOSTIC_KEYS = tuple(f"grad_cos_{g}_{s}" for g in ("actor", "critic") for s in ("mean", "min", "max"))
 
@@ -146,6 +153,7 @@ class TaskGradientWrapper(LossModule):
         self.critic_keys = None if critic_keys is None else tuple(critic_keys)
         self.task_loss_scale = float(task_loss_scale)
         self.num_updates = 0
+        self.batched_backward = True  # False once a batched backward failed (then K passes every update)
         resolve_param_group(loss_module, params)  # validates that the group exists
         self._diag_groups: list[str] = []
         if self.diagnostics_every:
@@ -348,7 +356,7 @@ class TaskGradientWrapper(LossModule):
         rest = [p for p in resolve_param_group(self.loss_module, "all") if id(p) not in ids]
         if self.needs_task_gradients:
             if reuse is None:
-                reuse = per_task_gradients(m_task, group)
+                reuse = self._task_gradients(m_task, group)
             direction = self._combine(reuse, gram(reuse), present)
             grads_group = [a + b for a, b in zip(grads_or_zeros(p_mean, group), unflatten(direction, group))]
         else:
@@ -372,6 +380,15 @@ class TaskGradientWrapper(LossModule):
             metrics.set(key, value)
         return metrics
 
+    def _task_gradients(self, task_losses: torch.Tensor, params: list[torch.Tensor]) -> torch.Tensor:
+        """``[K, P]`` per-task gradient matrix: one batched backward pass while that works for this loss; after
+        the first failure (an op without a batching rule, e.g. compiled networks) ``K`` passes, without retrying."""
+        grads = batched_per_task_gradients(task_losses, params) if self.batched_backward else None
+        if grads is None:
+            self.batched_backward = False
+            grads = per_task_gradients(task_losses, params, batched=False)
+        return grads
+
     def _diagnostics(self, losses: TaskLosses, present: torch.Tensor) -> torch.Tensor | None:
         """Cosine statistics of the per-task actor/critic gradients; returns the manipulated group's
         gradient matrix when it coincides with one of them (so it is not computed twice)."""
@@ -382,7 +399,7 @@ class TaskGradientWrapper(LossModule):
             if per_task is None:
                 stats = torch.full((3,), float("nan"), device=present.device)
             else:
-                grads = per_task_gradients(per_task, params)
+                grads = self._task_gradients(per_task, params)
                 stats = cosine_stats(gram(grads), present)
                 if self.needs_task_gradients and self.params == g:
                     reuse = grads * self.task_loss_scale
