@@ -4,6 +4,8 @@ from .gradients import compute_gradients, total_loss
 from .grpo import MTGRPOLoss
 from .per_task_gae import PerTaskGAE
 from .per_task_returns import PerTaskMCAdvantage, discounted_reward_to_go, grpo_advantages
+from .peng_q_lambda import PengQLambda, peng_q_lambda
+from .pqn import MTPQNLoss
 from .ppo import MTClipPPOBase, MTPPOLoss
 
 # gradient manipulation (issue #5)
@@ -21,11 +23,14 @@ __all__ = [
     "MTClipPPOBase",
     "MTGRPOLoss",
     "MTPPOLoss",
+    "MTPQNLoss",
+    "PengQLambda",
     "PerTaskGAE",
     "PerTaskMCAdvantage",
     "compute_gradients",
     "discounted_reward_to_go",
     "grpo_advantages",
+    "peng_q_lambda",
     "total_loss",
     # gradient manipulation
     "CAGrad",
