@@ -11,7 +11,7 @@ from tensordict.utils import NestedKey
 from torchrl.objectives.value import ValueEstimatorBase
 
 from ..modules.q_network import greedy_value
-from .per_task_gae import rollout_time_dim
+from .per_task_gae import last_next_inputs, rollout_time_dim
 
 
 def peng_q_lambda(
@@ -159,15 +159,7 @@ class PengQLambda(ValueEstimatorBase):
         values = self._greedy(tensordict.select(*in_keys), params)  # V(s_t), [*B, T, 1]
         next_td = tensordict.get("next")
         done = next_td.get(keys.done)
-        last = next_td[..., -1].select(*in_keys, strict=False)
-        done_last = done.select(tdim, -1).reshape(last.batch_size)
-        for key in in_keys:
-            if key not in last.keys(include_nested=True):
-                last.set(key, tensordict.get(key)[..., -1])
-            val = last.get(key)
-            if val.is_floating_point():  # NaN rows of finished episodes: their value is not used
-                mask = done_last.reshape(done_last.shape + (1,) * (val.ndim - done_last.ndim))
-                last.set(key, torch.where(mask, torch.zeros_like(val), val))
+        last = last_next_inputs(tensordict, in_keys, keys.done, tdim)  # rows done at T-1: value unused
         last_value = self._greedy(last, params).unsqueeze(tdim)
         index = (slice(None),) * tdim + (slice(1, None),)
         next_values = torch.cat([values[index], last_value], dim=tdim)
