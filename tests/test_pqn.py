@@ -24,6 +24,8 @@ from torchrl.modules import EGreedyModule, QValueModule
 from torchrl.objectives.value import TDLambdaEstimator
 
 from envs_for_tests import SyntheticMTEnv
+from test_trainer import _cfg as trainer_cfg
+from test_trainer import _env, _same_metrics
 from mtbench.envs import DiscreteActions, bin_values, make_env
 from mtbench.envs.metaworld import MetaWorldEnv
 from mtbench.modules import decomposed_q_value, greedy_value, make_q_network, make_q_policy
@@ -33,7 +35,6 @@ from mtbench.trainer.hooks.schedules import linear_epsilon
 from mtbench.trainer.skip_found_inf import RAdam
 
 CONF = str(Path(__file__).resolve().parents[1] / "conf")
-TIMING_KEYS = ("fps", "fps_collect", "time/collect_s", "time/update_s")
 
 
 # ------------------------------------------------------------------------------------------ discrete actions
@@ -384,33 +385,9 @@ def test_radam_skips_a_step_on_found_inf_exactly() -> None:
 
 # ------------------------------------------------------------------------------------------ build_trainer
 def _cfg(tmp_path: Path, *overrides: str):
-    base = [
-        "device=cpu",
-        "loss=pqn",
-        "arch.kwargs.hidden=[32,32]",
-        "loss.horizon=8",
-        "loss.epochs=2",
-        "loss.minibatch_size=48",
-        "loss.exploration_fraction=0.5",
-        "max_iterations=4",
-        f"checkpoint.dir={tmp_path / 'ckpt'}",
-        "checkpoint.every=0",
-        "logging.progress=none",
-        f"logging.log_dir={tmp_path / 'runs'}",
-    ]
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        return compose("config", overrides=[*base, *overrides])
-
-
-def _env(**kwargs: Any) -> SyntheticMTEnv:
-    return SyntheticMTEnv([4, 4, 4], max_episode_steps=6, seed=0, **kwargs)
-
-
-def _same_metrics(a: dict[str, float], b: dict[str, float]) -> None:
-    assert set(a) == set(b)
-    for key in a:
-        if key not in TIMING_KEYS:
-            assert a[key] == b[key] or (math.isnan(a[key]) and math.isnan(b[key])), key
+    """tests/test_trainer.py's small CPU run (2 epochs of 48-sample minibatches over 8-step rollouts, 4 iterations)
+    with loss=pqn and epsilon annealed over half of it."""
+    return trainer_cfg(tmp_path, "loss=pqn", "loss.exploration_fraction=0.5", *overrides)
 
 
 def test_pqn_configs_compose_with_the_paper_sizes() -> None:
@@ -463,9 +440,9 @@ def test_resume_is_exact_between_iterations_and_inside_a_rollout(tmp_path: Path)
     full_history = full.train()
     resumed = build_trainer(_cfg(tmp_path, f"resume={tmp_path / 'full' / 'ckpt_000002.pt'}"), env=_env())
     assert resumed.get_hook(EpsilonSchedule).epsilon == full_history[1]["train/epsilon"]
-    for a, b in zip(full_history[2:], resumed.train()):
+    for a, b in zip(full_history[2:], resumed.train(), strict=True):
         _same_metrics(a, b)
-    for (name, p), q in zip(full.loss.named_parameters(), resumed.loss.parameters()):
+    for (name, p), q in zip(full.loss.named_parameters(), resumed.loss.parameters(), strict=True):
         assert torch.equal(p, q), name
     assert torch.equal(full.optimizer.param_groups[0]["lr"], resumed.optimizer.param_groups[0]["lr"])
 
@@ -474,7 +451,7 @@ def test_resume_is_exact_between_iterations_and_inside_a_rollout(tmp_path: Path)
     assert len(stopped.train()) == 1 and stopped.rollout.steps_done == 3
     ckpt = tmp_path / "stop" / "ckpt_000001_step0003.pt"
     rest = build_trainer(_cfg(tmp_path, f"resume={ckpt}", f"checkpoint.dir={tmp_path / 'stop2'}"), env=_env()).train()
-    for a, b in zip(full_history[1:], rest):
+    for a, b in zip(full_history[1:], rest, strict=True):
         _same_metrics(a, b)
 
 
@@ -504,7 +481,7 @@ def test_pcgrad_wraps_the_pqn_loss(tmp_path: Path) -> None:
     loss.zero_grad()
     wrapped = make_gradient_method("pcgrad", loss, 1, critic_keys=["loss_qvalue"])  # the Q network is the critic
     compute_gradients(wrapped, batch)
-    for p, g in zip(loss.parameters(), plain):  # one task: PCGrad's mean projected gradient is the plain gradient
+    for p, g in zip(loss.parameters(), plain, strict=True):  # one task: PCGrad's mean projected gradient is the plain gradient
         torch.testing.assert_close(p.grad, g)
     with pytest.raises(ValueError, match="set critic_keys"):
         make_gradient_method("pcgrad", MTPQNLoss(q), 1).backward(batch)

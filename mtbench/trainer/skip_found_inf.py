@@ -31,7 +31,7 @@ class SkipOnFoundInf(torch.optim.Optimizer):
                  for p in params]
         out = super().step(closure)
         skip = found_inf.reshape(()) != 0
-        for p, (value, state) in zip(params, saved):
+        for p, (value, state) in zip(params, saved, strict=True):
             p.copy_(torch.where(skip.to(p.device), value, p))
             for key, current in self.state[p].items():
                 if isinstance(current, torch.Tensor):
