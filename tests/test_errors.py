@@ -14,6 +14,7 @@ import torch
 from hydra import compose, initialize_config_dir
 
 from envs_for_tests import SyntheticMTEnv
+from mtbench.trainer.config import LOSSES
 from mtbench.trainer import build_trainer
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -117,8 +118,8 @@ CASES: list[tuple[str, Callable[[Path, Any], Any], type[Exception], str]] = [
      r"^device='tpu' is not supported; valid choices: 'auto', 'cpu', 'cuda' or 'cuda:<index>'$"),
     ("loss.lr_schedule=cosine", lambda t, e: _build(t, "loss.lr_schedule=cosine"), ValueError,
      r"^unknown loss\.lr_schedule 'cosine'; valid choices: \['fixed', 'adaptive'\]$"),
-    ("loss.name=sac", lambda t, e: _build(t, "loss.name=sac"), ValueError,
-     r"^unknown loss\.name 'sac'; valid choices: \['ppo', 'grpo'\]$"),
+    ("loss.name=dqn", lambda t, e: _build(t, "loss.name=dqn"), ValueError,
+     r"^unknown loss\.name 'dqn'; valid choices: \[" + ", ".join(f"'{n}'" for n in LOSSES) + r"\]$"),
     ("loss.minibatch_size=20", lambda t, e: _build(t, "loss.minibatch_size=20"), ValueError,
      r"^loss\.minibatch_size=20 must divide the batch num_envs\*horizon = 12\*4 = 48 \(or be >= it: one minibatch\)$"),
     ("cudagraph_update=true on CPU", lambda t, e: _build(t, "cudagraph_update=true"), ValueError,

@@ -501,7 +501,7 @@ def test_pcgrad_wraps_the_pqn_loss(tmp_path: Path) -> None:
         ("loss.exploration_fraction=0", r"loss.exploration_fraction must be a number in \(0.0, 1.0\]"),
         ("loss.anneal_lr=maybe", "loss.anneal_lr must be true or false"),
         ("loss.loss_function=huber", r"unknown loss.loss_function 'huber'; valid choices: \['l2', 'l1', 'smooth_l1"),
-        ("loss.name=dqn", r"unknown loss.name 'dqn'; valid choices: \['ppo', 'grpo', 'pqn'\]"),
+        ("loss.name=dqn", r"unknown loss.name 'dqn'; valid choices: \[.*'pqn'.*\]"),
         ("cudagraph_update=true", "cudagraph_update=true is not available with loss=pqn"),
     ],
 )
