@@ -56,7 +56,7 @@ def batch(task_id: torch.Tensor) -> torch.Tensor:
 # --------------------------------------------------------------------------------------------------- registry
 def test_registry_names():
     assert set(M.ARCHITECTURES) == {
-        "mlp", "multihead", "soft_modularization", "care", "care_mh", "paco", "moore", "moore_mh",
+        "mlp", "multihead", "soft_modularization", "care", "care_mh", "paco", "moore", "moore_mh", "residual_mlp",
     }  # fmt: skip
 
 

@@ -8,8 +8,9 @@ import re
 from typing import Any, Sequence
 
 import torch
-from torchrl.envs import EnvBase
+from torchrl.envs import EnvBase, TransformedEnv
 
+from .discrete_actions import ACTION_MODES, DiscreteActions, check_bins
 from .metaworld import ALL_TASK_NAMES, MetaWorldEnv, benchmark_tasks
 from .parkour.settings import SETTINGS as PARKOUR_SETTINGS
 from .parkour.terrains import TERRAIN_NAMES as PARKOUR_TERRAINS
@@ -54,6 +55,9 @@ def make_env(
     name: str | Sequence[str],
     num_envs: int | Sequence[int] | None = None,
     device: torch.device | str | None = None,
+    *,
+    actions: str = "continuous",
+    bins: int | None = None,
     **overrides: Any,
 ) -> EnvBase:
     """Build a batched multi-task env.
@@ -66,6 +70,10 @@ def make_env(
         num_envs: total worlds (split evenly, MTBench style) or, for Meta-World, one count per task. Defaults to 1
             per task (per terrain column for Parkour).
         device: torch device (default: ``cuda`` if available, else ``cpu``).
+        actions: ``"continuous"`` (default) or ``"discrete"``: MTBench's bang-off-bang variant of a Meta-World
+            setting, the env wrapped in :class:`~mtbench.envs.discrete_actions.DiscreteActions` (integer bins
+            ``[N, 4]``, ``Categorical(bins)`` action spec, bin ``b`` -> ``-1 + 2 b / (bins - 1)`` per dimension).
+        bins: values per action dimension with ``actions="discrete"`` (default 3: ``{-1, 0, +1}``).
         **overrides: forwarded to :class:`~mtbench.envs.metaworld.MetaWorldEnv` (``seed``, ``rand``,
             ``reward_scale``, ``episode_length``, ``substeps``, ``robot_collision``, ``box_box_collider``, ...) or to
             ``make_parkour_env`` (``num_rows``, ``terrain_seed``, ``seed``, ``episode_length``,
@@ -75,6 +83,19 @@ def make_env(
         device = "cuda" if torch.cuda.is_available() else "cpu"
     if not re.fullmatch(r"cpu|cuda(:\d+)?", str(device)):
         raise ValueError(f"device={str(device)!r} is not supported; valid choices: 'cpu', 'cuda', 'cuda:<index>'")
+    if actions not in ACTION_MODES:
+        raise ValueError(f"unknown actions {actions!r}; valid choices: {list(ACTION_MODES)}")
+    if actions == "continuous" and bins is not None:
+        raise ValueError(f"bins={bins!r} is only used with actions='discrete' (got actions='continuous')")
+    if actions == "discrete":
+        bins = check_bins(3 if bins is None else bins)
+        if is_parkour(name):
+            raise ValueError(f"actions='discrete' is available for Meta-World settings only; got the Parkour "
+                             f"setting {name!r}")
+        env = make_env(name, num_envs, device, **overrides)
+        discrete = TransformedEnv(env, DiscreteActions(bins))
+        discrete.__dict__["_torchrl_native_autoreset"] = True  # TorchRL reads it from the instance
+        return discrete
     if is_parkour(name):
         from .parkour.settings import make_parkour_env
 

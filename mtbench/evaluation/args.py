@@ -25,7 +25,8 @@ class EvalArgs:
     Attributes:
         checkpoint: checkpoint file written by ``Trainer.save`` (e.g. ``.../checkpoints/final.pt``).
         episodes: episodes per task (>= 1) for each evaluation (sampled and deterministic).
-        deterministic: run only the deterministic evaluation (actions = Gaussian mean, clamped to the env's action bounds).
+        deterministic: run only the deterministic evaluation (actions = Gaussian mean clamped to the env's action
+            bounds; loss=pqn: the greedy bins).
         video: render one video per task (first world(s) of each task block, first episode of the
             deterministic evaluation).
         device: ``auto`` (cuda if available), ``cpu``, ``cuda`` or ``cuda:<index>``.

@@ -116,9 +116,14 @@ def _non_persistent_buffers(module: nn.Module) -> list[str]:
             for name in getattr(sub, "_non_persistent_buffers_set", ())]
 
 
-def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> EvalPolicy:
-    """Actor (``make_actor`` with the run's arch) and observation normaliser of a checkpoint, for ``env``."""
+def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> nn.Module:
+    """Actor (``make_actor`` with the run's arch) and observation normaliser of a checkpoint, for ``env``; for a
+    ``loss=pqn`` checkpoint the Q network's greedy / epsilon-greedy policy (:mod:`~mtbench.evaluation.q_policy`)."""
     cfg = OmegaConf.create(state["config"])
+    if (cfg.get("loss") or {}).get("name") == "pqn":
+        from .q_policy import load_q_policy
+
+        return load_q_policy(state, env, device)
     num_tasks = int(env.num_tasks)
     obs_dim = int(env.observation_spec["observation"].shape[-1])
     action_dim = int(env.action_spec.shape[-1])

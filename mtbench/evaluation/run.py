@@ -206,7 +206,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     print(f"\nPer-task evaluation ({report.info['metric']}: {report.info['metric']} at any step of the episode; "
-          f"sampled = actions drawn from the policy as in training, deterministic = the Gaussian mean):\n")
+          "sampled = actions drawn from the policy as in training, deterministic = the Gaussian mean, or the greedy "
+          "action of a Q network):\n")
     print(report.table)
     print(f"\nwrote {report.markdown}, {report.json}" + (f", {report.mcap}" if report.mcap else ""))
     for name, path in report.videos.items():

@@ -13,6 +13,7 @@ from .mlp import MLP
 from .moore import MOORE
 from .multihead import MultiHeadMLP
 from .paco import PaCo
+from .residual_mlp import ResidualMLP
 from .soft_modularization import SoftModularization
 
 ARCHITECTURES: dict[str, Callable[..., nn.Module]] = {
@@ -24,6 +25,7 @@ ARCHITECTURES: dict[str, Callable[..., nn.Module]] = {
     "paco": PaCo,
     "moore": MOORE,
     "moore_mh": functools.partial(MOORE, multi_head=True),
+    "residual_mlp": ResidualMLP,
 }
 
 _ROLES = ("actor", "critic")

@@ -4,6 +4,8 @@ from .gradients import compute_gradients, total_loss
 from .grpo import MTGRPOLoss
 from .per_task_gae import PerTaskGAE
 from .per_task_returns import PerTaskMCAdvantage, discounted_reward_to_go, grpo_advantages
+from .peng_q_lambda import PengQLambda, peng_q_lambda
+from .pqn import MTPQNLoss
 from .ppo import MTClipPPOBase, MTPPOLoss
 
 # off-policy (MT-SAC)
@@ -25,14 +27,17 @@ __all__ = [
     "MTClipPPOBase",
     "MTGRPOLoss",
     "MTPPOLoss",
+    "MTPQNLoss",
     "MTSACLoss",
     "NStepTransitions",
+    "PengQLambda",
     "PerTaskGAE",
     "PerTaskMCAdvantage",
     "compute_gradients",
     "discounted_reward_to_go",
     "grpo_advantages",
     "nstep_transitions",
+    "peng_q_lambda",
     "total_loss",
     # gradient manipulation
     "CAGrad",

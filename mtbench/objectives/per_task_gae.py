@@ -38,6 +38,26 @@ def task_ids(tensordict: TensorDictBase, key: NestedKey) -> torch.Tensor:
     return task_id.reshape(tensordict.batch_size)
 
 
+def last_next_inputs(
+    tensordict: TensorDictBase, in_keys: list[NestedKey], done_key: NestedKey, time_dim: int
+) -> TensorDictBase:
+    """The value network's inputs at the last ``("next", ...)`` step of a ``[*B, T]`` rollout (``[*B]``), for the
+    bootstrap at the end of the window: entries missing from ``"next"`` (e.g. a constant ``task_id``) are taken from
+    the last step; floating entries of rows done at the last step (NaN under TorchRL's native autoreset) are zeroed,
+    so that the network sees finite inputs (their value must be masked by the caller)."""
+    next_td = tensordict.get("next")
+    last = next_td[..., -1].select(*in_keys, strict=False)
+    done_last = next_td.get(done_key).select(time_dim, -1).reshape(last.batch_size)
+    for key in in_keys:
+        if key not in last.keys(include_nested=True):
+            last.set(key, tensordict.get(key)[..., -1])
+        val = last.get(key)
+        if val.is_floating_point():
+            mask = done_last.reshape(done_last.shape + (1,) * (val.ndim - done_last.ndim))
+            last.set(key, torch.where(mask, torch.zeros_like(val), val))
+    return last
+
+
 class PerTaskGAE(ValueEstimatorBase):
     """GAE on a native-autoreset multi-task rollout whose critic predicts per-task *normalised* values.
 
@@ -154,16 +174,8 @@ class PerTaskGAE(ValueEstimatorBase):
         in_keys = list(self.value_network.in_keys)
         values = self._values(tensordict.select(*in_keys), params)
         next_td = tensordict.get("next")
-        last = next_td[..., -1].select(*in_keys, strict=False)
         done = next_td.get(keys.done)
-        done_last = done.select(tdim, -1).reshape(last.batch_size)
-        for key in in_keys:
-            if key not in last.keys(include_nested=True):
-                last.set(key, tensordict.get(key)[..., -1])
-            val = last.get(key)
-            if val.is_floating_point():  # NaN rows of finished episodes: their value is masked below
-                mask = done_last.reshape(done_last.shape + (1,) * (val.ndim - done_last.ndim))
-                last.set(key, torch.where(mask, torch.zeros_like(val), val))
+        last = last_next_inputs(tensordict, in_keys, keys.done, tdim)  # rows done at T-1: masked below
         last_values = self._values(last, params).unsqueeze(tdim)
         index = (slice(None),) * tdim + (slice(1, None),)
         next_values = torch.cat([values[index], last_values], dim=tdim)
@@ -190,4 +202,4 @@ class PerTaskGAE(ValueEstimatorBase):
         return tensordict
 
 
-__all__ = ["PerTaskGAE", "rollout_time_dim", "task_ids"]
+__all__ = ["PerTaskGAE", "last_next_inputs", "rollout_time_dim", "task_ids"]

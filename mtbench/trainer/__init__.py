@@ -1,7 +1,7 @@
 """Training loops and their parts (Hydra front door in examples/train.py, see docs/training.md).
 
-``build_trainer(cfg, env=None, logger=None)`` builds an on-policy run (MT-PPO / MT-GRPO: :class:`Trainer`) or an
-off-policy run (MT-SAC: :class:`OffPolicyTrainer`, docs/off_policy.md) from the config; the loops take plain
+``build_trainer(cfg, env=None, logger=None)`` builds an on-policy run (MT-PPO / MT-GRPO / MT-PQN: :class:`Trainer`)
+or an off-policy run (MT-SAC: :class:`OffPolicyTrainer`, docs/off_policy.md) from the config; the loops take plain
 components (env, policy, any TorchRL loss, optimizer, hooks), so stock TorchRL losses train through them too.
 """
 
@@ -18,13 +18,23 @@ from .builder import (
 )
 from .config import LOSSES, check_config, resolve_device
 from .exploration import ExplorationPolicy
-from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
+from .hooks import (
+    AdaptiveLR,
+    Checkpointer,
+    EpsilonSchedule,
+    LinearLRDecay,
+    MetricsLogger,
+    NonFiniteGuard,
+    ProgressHook,
+    TrainerHook,
+)
 from .loop import TrainingLoop
 from .metrics import EpisodeStatsWindow
 from .off_policy import OffPolicyTrainer
 from .replay import make_replay_buffer
 from .rollout import Rollout
 from .sac_builder import add_observation_norm_keep_raw, build_sac_trainer
+from .skip_found_inf import RAdam, SkipOnFoundInf
 from .soft_actor_critic import SquashedNormal, make_qvalue, make_sac_actor
 from .stop import StopRequest
 from .trainer import Trainer, observation_norm
@@ -34,15 +44,19 @@ __all__ = [
     "AdaptiveLR",
     "Checkpointer",
     "EpisodeStatsWindow",
+    "EpsilonSchedule",
     "ExplorationPolicy",
     "GaussianPolicyHead",
     "LOSSES",
+    "LinearLRDecay",
     "MetricsLogger",
     "MinibatchUpdate",
     "NonFiniteGuard",
     "OffPolicyTrainer",
     "ProgressHook",
+    "RAdam",
     "Rollout",
+    "SkipOnFoundInf",
     "SquashedNormal",
     "StopRequest",
     "Trainer",

@@ -10,7 +10,8 @@ from omegaconf import DictConfig, OmegaConf
 from torch import nn
 from torchrl.envs import EnvBase, TransformedEnv
 
-from ..objectives import MTGRPOLoss, MTPPOLoss, make_gradient_method
+from ..modules.q_network import DecomposedQNetwork
+from ..objectives import MTGRPOLoss, MTPPOLoss, MTPQNLoss, make_gradient_method
 from ..objectives.ppo import MTClipPPOBase
 from ..transforms import PerTaskObservationNorm
 from .actor_critic import GaussianPolicyHead, make_actor, make_critic
@@ -27,6 +28,7 @@ from .config import (
 from .env_factory import make_env_from_cfg
 from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
 from .loop import TrainingLoop
+from .pqn import build_pqn_loss, build_radam, discrete_action_env, make_pqn_policy, pqn_hooks
 from .pretraining import load_pretrained
 from .rollout import base_env
 from .sac_builder import build_sac_trainer
@@ -46,11 +48,17 @@ def add_observation_norm(env: EnvBase, loss_cfg: Mapping[str, Any]) -> EnvBase:
         return env
     base = base_env(env)
     norm = PerTaskObservationNorm(base.num_tasks, state_dim=getattr(base, "state_dim", None), device=env.device)
+    if isinstance(env, TransformedEnv):  # e.g. PQN's discrete actions: one level of transforms (TorchRL's layout)
+        env.append_transform(norm)
+        return env
     return TransformedEnv(env, norm)
 
 
 def build_networks(cfg: DictConfig, env: EnvBase, device: torch.device) -> tuple[nn.Module, nn.Module | None]:
-    """The Gaussian actor and (for PPO) the critic of the ``arch`` preset, sized from the env's specs."""
+    """The Gaussian actor and (for PPO) the critic of the ``arch`` preset, sized from the env's specs; for PQN the
+    epsilon-greedy policy of the decomposed Q network (no critic)."""
+    if cfg.loss.name == "pqn":
+        return make_pqn_policy(cfg, env, device), None
     base = base_env(env)
     obs_dim = int(env.observation_spec["observation"].shape[-1])
     action_dim = int(env.action_spec.shape[-1])
@@ -70,7 +78,7 @@ def compile_networks(actor: nn.Module, critic: nn.Module | None, mode: str | Non
     """``torch.compile`` the actor and critic networks in place (``nn.Module.compile``): used by the rollout and
     by every loss evaluation. The TensorDict plumbing of the loss and the optimizer step stay eager (compiling
     them whole graph-breaks on TensorDict internals / fused Adam)."""
-    nets = [m.net for m in actor.modules() if isinstance(m, GaussianPolicyHead)]
+    nets = [m.net for m in actor.modules() if isinstance(m, (GaussianPolicyHead, DecomposedQNetwork))]
     if critic is not None:
         nets.append(critic.module)
     for net in nets:
@@ -78,10 +86,13 @@ def compile_networks(actor: nn.Module, critic: nn.Module | None, mode: str | Non
 
 
 def build_loss(loss_cfg: Mapping[str, Any], actor: nn.Module, critic: nn.Module | None, num_tasks: int,
-               device: torch.device) -> MTClipPPOBase:
-    """``MTPPOLoss`` (``loss=ppo``, value estimator ``PerTaskGAE``) or ``MTGRPOLoss`` (``loss=grpo``,
-    ``PerTaskMCAdvantage``) with the config's hyperparameters."""
+               device: torch.device) -> MTClipPPOBase | MTPQNLoss:
+    """``MTPPOLoss`` (``loss=ppo``, value estimator ``PerTaskGAE``), ``MTGRPOLoss`` (``loss=grpo``,
+    ``PerTaskMCAdvantage``) or ``MTPQNLoss`` (``loss=pqn``, ``PengQLambda``; ``actor`` is the Q policy) with the
+    config's hyperparameters."""
     lc = loss_cfg
+    if lc["name"] == "pqn":
+        return build_pqn_loss(lc, actor, device)
     common = dict(num_tasks=num_tasks, clip_epsilon=float(lc["clip_epsilon"]), entropy_coeff=float(lc["entropy_coeff"]),
                   bounds_coeff=float(lc["bounds_coeff"]), soft_bound=float(lc["soft_bound"]), gamma=float(lc["gamma"]))
     if lc["name"] == "grpo":
@@ -109,12 +120,16 @@ def build_gradient_method(grad_cfg: Mapping[str, Any] | None, loss: nn.Module, n
     return make_gradient_method(name, loss, num_tasks, **kwargs)
 
 
-def resolve_graph_update(value: Any, device: torch.device, plain_loss: bool) -> bool:
-    """``cudagraph_update``: ``auto`` = on for CUDA with the plain loss (``grad=none``), ``true`` / ``false``."""
+def resolve_graph_update(value: Any, device: torch.device, plain_loss: bool, loss_name: str = "ppo") -> bool:
+    """``cudagraph_update``: ``auto`` = on for CUDA with the plain loss (``grad=none``; not for PQN, whose RAdam
+    update has not been checked under CUDA graphs), ``true`` / ``false``."""
     if value is None or str(value) == "auto":
-        return device.type == "cuda" and plain_loss
+        return device.type == "cuda" and plain_loss and loss_name != "pqn"
     if not isinstance(value, bool):
         raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
+    if value and loss_name == "pqn":
+        raise ValueError("cudagraph_update=true is not available with loss=pqn (its RAdam update is not verified "
+                         "under CUDA graphs); use auto or false")
     if value and device.type != "cuda":
         raise ValueError(f"cudagraph_update=true needs a CUDA device (device={device}); use auto or false")
     return value
@@ -122,19 +137,25 @@ def resolve_graph_update(value: Any, device: torch.device, plain_loss: bool) -> 
 
 def build_optimizer(
     loss: nn.Module, loss_cfg: Mapping[str, Any], device: torch.device, capturable: bool
-) -> torch.optim.Adam:
+) -> torch.optim.Optimizer:
     """Fused Adam (``loss.lr``, ``loss.adam_eps``) over the loss's trainable parameters, with a tensor learning
-    rate (changed in place by the adaptive schedule; ``capturable`` for a CUDA-graphed update)."""
+    rate (changed in place by the adaptive schedule; ``capturable`` for a CUDA-graphed update); RAdam for PQN
+    (:func:`~mtbench.trainer.pqn.build_radam`)."""
+    if loss_cfg.get("name") == "pqn":
+        return build_radam(loss, loss_cfg, device)
     params = [p for p in loss.parameters() if p.requires_grad]
     lr = torch.tensor(float(loss_cfg["lr"]), device=device)
     return torch.optim.Adam(params, lr=lr, eps=float(loss_cfg["adam_eps"]), fused=True, capturable=capturable)
 
 
 def build_hooks(cfg: DictConfig, logger: Any = None) -> list[TrainerHook]:
-    """The hooks of a run, in call order: non-finite guard, adaptive learning rate (``loss.lr_schedule=adaptive``),
-    metrics logger (when ``logger`` is given), progress display, checkpoints."""
+    """The hooks of a run, in call order: non-finite guard, the PQN schedules (``loss=pqn``: epsilon, learning-rate
+    decay), adaptive learning rate (``loss.lr_schedule=adaptive``), metrics logger (when ``logger`` is given),
+    progress display, checkpoints."""
     lc, ck, lg = cfg.loss, cfg.checkpoint, cfg.logging
     hooks: list[TrainerHook] = [NonFiniteGuard(int(cfg.get("max_nonfinite_iterations", 10)))]
+    if lc.get("name") == "pqn":
+        hooks += pqn_hooks(lc)  # epsilon schedule, learning-rate decay
     if lc.get("lr_schedule", "fixed") == "adaptive":
         hooks.append(AdaptiveLR(float(lc.get("kl_threshold", 0.008)), float(lc.get("min_lr", 1e-6)),
                                 float(lc.get("max_lr", 1e-2))))
@@ -160,7 +181,7 @@ def build_trainer(
     cfg: Mapping[str, Any] | DictConfig, env: EnvBase | None = None, logger: Any = None
 ) -> TrainingLoop:
     """The run of ``cfg`` (``conf/config.yaml`` schema), ready to ``train()``: a :class:`Trainer` (on-policy:
-    ``loss=ppo|grpo``) or an :class:`~mtbench.trainer.off_policy.OffPolicyTrainer` (``loss=sac``, built by
+    ``loss=ppo|grpo|pqn``) or an :class:`~mtbench.trainer.off_policy.OffPolicyTrainer` (``loss=sac``, built by
     :func:`~mtbench.trainer.sac_builder.build_sac_trainer`).
 
     Validates the config (clear errors before anything is built), seeds, sets ``torch_threads``, fills the run
@@ -195,12 +216,15 @@ def build_trainer(
         if resumed is not None:
             trainer.load_state_dict(resumed, source=str(cfg.resume))
         return trainer
+    if cfg.loss.name == "pqn":
+        env = discrete_action_env(env, int(cfg.loss.bins_per_dim))
     env = add_observation_norm(env, cfg.loss)
     actor, critic = build_networks(cfg, env, device)
     num_tasks = int(base_env(env).num_tasks)
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
     update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
-    graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device, update_module is loss)
+    graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device, update_module is loss,
+                                        cfg.loss.name)
     optimizer = build_optimizer(loss, cfg.loss, device, capturable=graph_update)
     if cfg.get("compile", False):
         if update_module is not loss:

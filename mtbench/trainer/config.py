@@ -15,7 +15,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 
 from ..objectives.sac import ALPHA_LOSSES
 
-LOSSES = ("ppo", "grpo", "sac")
+LOSSES = ("ppo", "grpo", "sac", "pqn")
 LR_SCHEDULES = ("fixed", "adaptive")
 LOGGERS = ("mcap", "none")
 PROGRESS_MODES = ("auto", "tqdm", "line", "none")
@@ -84,6 +84,10 @@ def check_config(cfg: DictConfig) -> None:
         _choice(lc.get("lr_schedule", "fixed"), "loss.lr_schedule", LR_SCHEDULES)
         for key in ("horizon", "epochs", "minibatch_size"):
             _int(lc.get(key), f"loss.{key}", 1)
+    if lc.get("name") == "pqn":
+        from .pqn import check_pqn_config
+
+        check_pqn_config(lc)
     lg = cfg.get("logging") or {}
     _choice(str(lg.get("logger", "mcap")), "logging.logger", LOGGERS)
     _choice(str(lg.get("progress", "auto")), "logging.progress", PROGRESS_MODES)

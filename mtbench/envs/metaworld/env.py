@@ -30,7 +30,7 @@ class MetaWorldEnv(EnvBase):
 
     Observation: Meta-World's 39-d layout (:mod:`.observation`: ``[tcp(3), gripper_open(1), obj1 pos+quat(7),
     obj2 pos+quat(7), previous 18-d frame, goal(3)]``) followed by the one-hot task id (``K`` dims). Quaternions
-    are MuJoCo's wxyz. Action: ``[-1, 1]^4``: TCP displacement (``robot.ACTION_SCALE`` m per step at full scale)
+    are MuJoCo's wxyz. Action: ``[-1, 1]^4``: TCP displacement (``action_scale`` m per step at full scale)
     and gripper effort (+1 closes). Reward (paper-era MTBench): ``task.success_reward`` (the task's bonus, 10 or 20)
     on steps where the task is solved, otherwise the task's dense reward times ``task.dense_scale`` (0.01) times
     ``reward_scale``. Episodes last
@@ -64,6 +64,8 @@ class MetaWorldEnv(EnvBase):
             GJK/EPA); see :class:`~mtbench.sim.WarpSim`.
         reward_version: ``"paper"`` (the paper-era MTBench rewards with the original's ``tolerance``, default) or
             ``"v2"`` (the same formulas with Meta-World's correct ``tolerance``; see ``docs/metaworld.md``).
+        action_scale: metres of TCP displacement per control step at ``|action| = 1`` (``robot.ACTION_SCALE`` =
+            0.01, Meta-World's; MTBench's discrete-action PQN runs use 0.005).
     """
 
     _torchrl_native_autoreset = True
@@ -89,6 +91,7 @@ class MetaWorldEnv(EnvBase):
         robot_collision: str = "primitive",
         box_box_collider: str = "primitive",
         reward_version: str = "paper",
+        action_scale: float = robot.ACTION_SCALE,
     ) -> None:
         tasks = list(tasks)
         counts = [int(c) for c in task_counts]
@@ -102,6 +105,9 @@ class MetaWorldEnv(EnvBase):
             raise ValueError(f"unknown reward_version {reward_version!r}; valid choices: {list(REWARD_VERSIONS)}")
         if episode_length < 1:
             raise ValueError(f"episode_length must be positive, got {episode_length}")
+        if not (isinstance(action_scale, (int, float)) and not isinstance(action_scale, bool) and action_scale > 0):
+            raise ValueError(f"action_scale must be a number > 0 (metres per control step at |action| = 1); got "
+                             f"{action_scale!r}")
         num_envs = sum(counts)
         warp_device(device)  # clear error for an unavailable device, before torch touches it
         super().__init__(device=device, batch_size=torch.Size([num_envs]))
@@ -116,6 +122,7 @@ class MetaWorldEnv(EnvBase):
         self.max_episode_steps = episode_length
         self.rand = rand
         self.reward_scale = float(reward_scale)
+        self.action_scale = float(action_scale)
         self.random_start_progress = random_start_progress
         self._generator = torch.Generator(device=dev)
         self._generator.manual_seed(seed)
@@ -246,7 +253,7 @@ class MetaWorldEnv(EnvBase):
         for (task, s), sl in zip(self.blocks, self.slices):
             a = action[sl]
             mocap = s.sim.mocap_pos[:, 0]
-            target = mocap + a[:, :3] * robot.ACTION_SCALE
+            target = mocap + a[:, :3] * self.action_scale
             mocap.copy_(torch.maximum(torch.minimum(target, self._mocap_high), self._mocap_low))
             s.sim.ctrl[:, 0] = -a[:, 3]  # tendon force: positive opens the fingers; action +1 closes
 

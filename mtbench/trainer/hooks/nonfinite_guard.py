@@ -35,10 +35,12 @@ class NonFiniteGuard(TrainerHook):
         self.streak = 0
 
     def on_train_start(self, trainer: Any) -> None:
-        if not trainer.optimizer.defaults.get("fused"):
+        optimizer = trainer.optimizer
+        if not (optimizer.defaults.get("fused") or getattr(optimizer, "honours_found_inf", False)):
             raise TypeError(
-                f"NonFiniteGuard needs an optimizer whose step honours found_inf (fused=True Adam/AdamW/SGD); "
-                f"got {type(trainer.optimizer).__name__} with fused={trainer.optimizer.defaults.get('fused')}"
+                f"NonFiniteGuard needs an optimizer whose step honours found_inf (fused=True Adam/AdamW/SGD, or "
+                f"mtbench.trainer.SkipOnFoundInf optimizers such as its RAdam); got {type(optimizer).__name__} with "
+                f"fused={optimizer.defaults.get('fused')}"
             )
 
     def before_optimizer_step(self, trainer: Any, metrics: TensorDictBase) -> None:
