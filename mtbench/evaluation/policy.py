@@ -74,6 +74,15 @@ def make_eval_env(config: Mapping[str, Any], num_envs: int, device: torch.device
     return env
 
 
+def normalized_input(td: TensorDictBase, obs_norm: PerTaskObservationNorm | None) -> TensorDict:
+    """A new tensordict with ``td``'s ``observation`` (normalised by the frozen ``obs_norm``, if any) and
+    ``task_id``: the input of an evaluated network; ``td`` is not modified."""
+    obs, task_id = td.get("observation"), td.get("task_id")
+    if obs_norm is not None:
+        obs = obs_norm.normalize(obs, task_id)  # frozen: no statistics update
+    return TensorDict({"observation": obs, "task_id": task_id}, batch_size=td.batch_size, device=td.device)
+
+
 class EvalPolicy(nn.Module):
     """The trained actor behind the frozen per-task observation normaliser.
 
@@ -100,10 +109,7 @@ class EvalPolicy(nn.Module):
 
     @torch.no_grad()
     def forward(self, td: TensorDictBase, deterministic: bool = False) -> torch.Tensor:
-        obs, task_id = td.get("observation"), td.get("task_id")
-        if self.obs_norm is not None:
-            obs = self.obs_norm.normalize(obs, task_id)  # frozen: no statistics update
-        inp = TensorDict({"observation": obs, "task_id": task_id}, batch_size=td.batch_size, device=td.device)
+        inp = normalized_input(td, self.obs_norm)
         kind = InteractionType.DETERMINISTIC if deterministic else InteractionType.RANDOM
         with set_interaction_type(kind):
             action = self.actor(inp).get("action")

@@ -6,7 +6,7 @@ from typing import Any, Mapping
 
 import torch
 from omegaconf import OmegaConf
-from tensordict import TensorDict, TensorDictBase
+from tensordict import TensorDictBase
 from torch import nn
 from torchrl.data import Bounded, Categorical, MultiCategorical
 
@@ -15,6 +15,7 @@ from ..modules.q_network import make_q_network
 from ..trainer.actor_critic import resolve_arch
 from ..transforms import PerTaskObservationNorm
 from .args import EvalArgumentError
+from .policy import normalized_input
 
 Q_PREFIX = "value_network_params."
 
@@ -40,10 +41,7 @@ class EvalQPolicy(nn.Module):
 
     @torch.no_grad()
     def forward(self, td: TensorDictBase, deterministic: bool = False) -> torch.Tensor:
-        obs, task_id = td.get("observation"), td.get("task_id")
-        if self.obs_norm is not None:
-            obs = self.obs_norm.normalize(obs, task_id)  # frozen: no statistics update
-        inp = TensorDict({"observation": obs, "task_id": task_id}, batch_size=td.batch_size, device=td.device)
+        inp = normalized_input(td, self.obs_norm)
         action = self.q_network(inp).get("action_value").argmax(-1)
         if not deterministic:
             explore = torch.rand(action.shape[:-1], device=action.device) < self.epsilon

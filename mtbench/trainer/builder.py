@@ -25,7 +25,7 @@ from .config import (
     total_iterations,
     warn_if_cpu_run_too_big,
 )
-from .env_factory import make_env_from_cfg
+from .env_factory import make_env_from_cfg, network_sizes
 from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
 from .loop import TrainingLoop
 from .pqn import build_pqn_loss, build_radam, discrete_action_env, make_pqn_policy, pqn_hooks
@@ -59,18 +59,14 @@ def build_networks(cfg: DictConfig, env: EnvBase, device: torch.device) -> tuple
     epsilon-greedy policy of the decomposed Q network (no critic)."""
     if cfg.loss.name == "pqn":
         return make_pqn_policy(cfg, env, device), None
-    base = base_env(env)
-    obs_dim = int(env.observation_spec["observation"].shape[-1])
-    action_dim = int(env.action_spec.shape[-1])
-    descriptions = getattr(base, "task_descriptions", None)  # CARE's context; else learned task embeddings
-    descriptions = list(descriptions) if descriptions is not None else None
-    arch, num_tasks = cfg.get("arch"), int(base.num_tasks)
-    actor = make_actor(arch, obs_dim=obs_dim, action_dim=action_dim, num_tasks=num_tasks,
-                       task_descriptions=descriptions, log_std_init=float(cfg.loss.get("log_std_init", 0.0)),
+    n, arch = network_sizes(env), cfg.get("arch")
+    actor = make_actor(arch, obs_dim=n.obs_dim, action_dim=n.action_dim, num_tasks=n.num_tasks,
+                       task_descriptions=n.task_descriptions, log_std_init=float(cfg.loss.get("log_std_init", 0.0)),
                        device=device)
     critic = None
     if cfg.loss.name == "ppo":
-        critic = make_critic(arch, obs_dim=obs_dim, num_tasks=num_tasks, task_descriptions=descriptions, device=device)
+        critic = make_critic(arch, obs_dim=n.obs_dim, num_tasks=n.num_tasks, task_descriptions=n.task_descriptions,
+                             device=device)
     return actor, critic
 
 

@@ -17,6 +17,7 @@ from ..envs.discrete_actions import DiscreteActions
 from ..modules.q_network import make_q_network, make_q_policy
 from ..objectives.pqn import LOSS_FUNCTIONS, MTPQNLoss
 from .actor_critic import resolve_arch
+from .env_factory import network_sizes
 from .hooks import EpsilonSchedule, LinearLRDecay, TrainerHook
 from .rollout import base_env
 from .skip_found_inf import RAdam
@@ -74,15 +75,10 @@ def discrete_action_env(env: EnvBase, bins: int) -> EnvBase:
 def make_pqn_policy(cfg: DictConfig, env: EnvBase, device: torch.device) -> TensorDictSequential:
     """Decomposed Q network of the ``arch`` preset (its ``critic`` role: MTBench's Q network is its critic) over
     the env's discrete actions, behind stock ``QValueModule`` and ``EGreedyModule`` (``eps`` = start epsilon)."""
-    base = base_env(env)
-    spec = env.action_spec
-    descriptions = getattr(base, "task_descriptions", None)
+    spec, n = env.action_spec, network_sizes(env)
     name, kwargs = resolve_arch(cfg.get("arch"), "critic")
-    q_network = make_q_network(
-        name, obs_dim=int(env.observation_spec["observation"].shape[-1]), action_dim=int(spec.shape[-1]),
-        bins=int(spec.n), num_tasks=int(base.num_tasks),
-        task_descriptions=list(descriptions) if descriptions is not None else None, **kwargs,
-    )
+    q_network = make_q_network(name, obs_dim=n.obs_dim, action_dim=n.action_dim, bins=int(spec.n),
+                               num_tasks=n.num_tasks, task_descriptions=n.task_descriptions, **kwargs)
     lc = cfg.loss
     policy = make_q_policy(q_network, spec, eps_init=float(lc.start_epsilon), eps_end=float(lc.end_epsilon))
     return policy.to(device)

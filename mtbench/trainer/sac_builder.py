@@ -14,6 +14,7 @@ from torchrl.objectives import SoftUpdate
 
 from ..objectives import MTSACLoss
 from ..transforms import PerTaskObservationNorm
+from .env_factory import network_sizes
 from .off_policy import RAW_OBSERVATION_KEY, OffPolicyTrainer
 from .rollout import base_env
 from .soft_actor_critic import make_qvalue, make_sac_actor
@@ -40,17 +41,12 @@ def build_sac_networks(
 ) -> tuple[nn.Module, list[nn.Module]]:
     """The tanh-Gaussian actor (the arch preset's ``actor`` network) and ``loss.num_qvalue_nets`` independently
     initialised Q networks (its ``critic`` network on observation + action), sized from the env's specs."""
-    base = base_env(env)
-    obs_dim = int(env.observation_spec["observation"].shape[-1])
-    action_dim = int(env.action_spec.shape[-1])
-    descriptions = getattr(base, "task_descriptions", None)  # CARE's context; else learned task embeddings
-    descriptions = list(descriptions) if descriptions is not None else None
-    arch, num_tasks = cfg.get("arch"), int(base.num_tasks)
-    actor = make_sac_actor(arch, obs_dim=obs_dim, action_dim=action_dim, num_tasks=num_tasks,
-                           task_descriptions=descriptions, log_std_bounds=list(cfg.loss.log_std_bounds),
+    n, arch = network_sizes(env), cfg.get("arch")
+    actor = make_sac_actor(arch, obs_dim=n.obs_dim, action_dim=n.action_dim, num_tasks=n.num_tasks,
+                           task_descriptions=n.task_descriptions, log_std_bounds=list(cfg.loss.log_std_bounds),
                            device=device)
-    qvalues = [make_qvalue(arch, obs_dim=obs_dim, action_dim=action_dim, num_tasks=num_tasks,
-                           task_descriptions=descriptions, device=device)
+    qvalues = [make_qvalue(arch, obs_dim=n.obs_dim, action_dim=n.action_dim, num_tasks=n.num_tasks,
+                           task_descriptions=n.task_descriptions, device=device)
                for _ in range(int(cfg.loss.get("num_qvalue_nets", 2)))]
     return actor, qvalues
 
