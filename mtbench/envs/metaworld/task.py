@@ -28,7 +28,7 @@ HAND_HIGH = (0.525, 1.025, 0.7)
 # ``paper``: the paper-era MTBench rewards, evaluated with the original's ``tolerance`` (0 inside its bounds: see
 # ``reward_utils.mtbench_tolerance``), which reproduces the paper's tables; ``v2``: the same formulas with a correct
 # ``tolerance`` (1 inside the bounds, Meta-World's); a task may redefine its v2 reward (``reward_v2``), none does
-# today (the zeroed in-place/caging terms are the diagnosed cause of the ~0% tasks; docs/results/mt50_rand_ppo.md).
+# today (docs/results/mt50_rand_ppo.md and docs/benchmarks.md section 8 compare the versions).
 REWARD_VERSIONS: tuple[str, ...] = ("paper", "v2")
 
 Reward = Callable[["TaskState", torch.Tensor], torch.Tensor]
