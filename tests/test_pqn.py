@@ -402,6 +402,11 @@ def test_pqn_configs_compose_with_the_paper_sizes() -> None:
     assert dict(mt10.env.overrides) == {"episode_length": 500, "action_scale": 0.005}
     assert mt10.env.num_envs * lc.horizon // lc.minibatch_size == 4
     assert small.env.num_envs * small.loss.horizon % small.loss.minibatch_size == 0 and small.max_iterations == 200
+    # the measured CPU preset (docs/pqn.md): 32 worlds per task x 8 steps, gamma 0.95, per-task input normalisation
+    sl = small.loss
+    assert (small.env.num_envs, sl.horizon, sl.minibatch_size, sl.epochs) == (96, 8, 192, 8)
+    assert (sl.gamma, sl.lr, sl.lmbda, sl.end_epsilon, sl.exploration_fraction, sl.normalize_input) == (
+        0.95, 3e-3, 0.9, 0.05, 0.1, True)
 
 
 def test_trainer_builds_the_q_policy_radam_and_schedules(tmp_path: Path) -> None:
