@@ -5,8 +5,12 @@ stages against the same stages run eagerly from the same state.
     python benchmarks/gpu_check.py parkour_hard 1024 30
 
 Each trial saves the full env state, takes one step with the graphs, restores the state, takes the same step
-eagerly, and compares observation, reward and done (worlds that reset during the step included). The physics
-graphs are shared by both paths, so differences can only come from the torch stages (or float atomics).
+eagerly twice (restoring the state in between), and compares observation, reward and done (worlds that reset
+during the step included). The physics graphs are shared by all paths, so graph-vs-eager differences come from the
+torch stages or from run-to-run nondeterminism of the physics (float atomics, amplified by contacts); the second
+eager step measures the latter (eager vs eager). Differences are reported separately for the worlds that reset in
+the step and for the others, and per observation field. A fourth argument ``cpu`` runs the same check on the CPU
+(no graphs of torch work there: graph vs eager is eager vs eager, and must be exactly 0).
 """
 
 from __future__ import annotations
@@ -24,39 +28,36 @@ def main() -> None:
     name = sys.argv[1] if len(sys.argv) > 1 else "mt10"
     n = int(sys.argv[2]) if len(sys.argv) > 2 else 256
     trials = int(sys.argv[3]) if len(sys.argv) > 3 else 40
+    device = sys.argv[4] if len(sys.argv) > 4 else "cuda"
     overrides = {"num_rows": 2} if name.startswith("parkour") else {}  # a small terrain grid is enough here
-    env = make_env(name, num_envs=n, device="cuda", seed=0, **overrides)
+    env = make_env(name, num_envs=n, device=device, seed=0, **overrides)
     action_dim = int(env.action_spec.shape[-1])
     check_env_specs(env)
-    print(f"check_env_specs passed for {name} on {env.device} ({torch.cuda.get_device_name()})", flush=True)
+    where = torch.cuda.get_device_name() if env.device.type == "cuda" else "CPU"
+    print(f"check_env_specs passed for {name} on {env.device} ({where})", flush=True)
     env.reset()
     gen = torch.Generator(device=env.device).manual_seed(1)
     for _ in range(5):  # eager warm-up steps, then the stages are captured
         env._core_step(torch.rand(n, action_dim, generator=gen, device=env.device) * 2 - 1)
-    assert all(stage.captured for stage in env._stages), "stages were not captured"
-    worst_obs, worst_rew, done_mismatch, resets = 0.0, 0.0, 0, 0
-    col_diff = torch.zeros(env.observation_spec["observation"].shape[-1], device=env.device)
+    if env.device.type == "cuda":
+        assert all(stage.captured for stage in env._stages), "stages were not captured"
+    graph_vs_eager, eager_vs_eager = StepDiffs(env), StepDiffs(env)
     for _ in range(trials):
         state = copy.deepcopy(env.get_extra_state())
         action = torch.rand(n, action_dim, generator=gen, device=env.device) * 2 - 1
-        graphed = env._core_step(action)
+        graphed = {k: v.clone() for k, v in env._core_step(action).items() if isinstance(v, torch.Tensor)}
         after = copy.deepcopy(env.get_extra_state())
-        env.set_extra_state(state)
-        for stage in env._stages:
-            stage.enabled = False
-        eager = env._core_step(action)
-        for stage in env._stages:
-            stage.enabled = True
+        eager = [_eager_step(env, state, action) for _ in range(2)]
         env.set_extra_state(after)  # continue from the graphed trajectory
-        diff = (graphed["observation"] - eager["observation"]).abs()
-        col_diff = torch.maximum(col_diff, diff.amax(0))
-        worst_obs = max(worst_obs, float(diff.max()))
-        worst_rew = max(worst_rew, float((graphed["reward"] - eager["reward"]).abs().max()))
-        done_mismatch += int((graphed["done"] != eager["done"]).sum())
-        resets += int(graphed["done"].sum())
-    print(f"graph vs eager over {trials} steps x {n} worlds ({resets} resets): max |d obs| {worst_obs:.3e}, "
-          f"max |d reward| {worst_rew:.3e}, done mismatches {done_mismatch}", flush=True)
-    print("largest observation differences by field:", _field_diffs(env, col_diff.cpu()), flush=True)
+        graph_vs_eager.add(graphed, eager[0])
+        eager_vs_eager.add(eager[0], eager[1])
+    print(f"graph vs eager over {trials} steps x {n} worlds: {graph_vs_eager}", flush=True)
+    print(f"eager vs eager (physics run-to-run) over the same steps: {eager_vs_eager}", flush=True)
+    print("largest graph-vs-eager observation differences by field:",
+          _field_diffs(env, graph_vs_eager.col_diff.cpu()), flush=True)
+    print("largest eager-vs-eager observation differences by field:",
+          _field_diffs(env, eager_vs_eager.col_diff.cpu()), flush=True)
+    g = graph_vs_eager
     td = env.rollout(200, break_when_any_done=False)
     # TorchRL marks the ("next", "observation") of autoreset steps as unknown (NaN); every observation the
     # policy sees is in "observation"
@@ -65,9 +66,51 @@ def main() -> None:
         torch.isfinite(td["next", "observation"][not_done]).all())
     print("rollout reward mean", td["next", "reward"].mean().item(), "finite", finite,
           "stats", {k: v.tolist() for k, v in env.pop_episode_stats().items()})
-    ok = worst_obs < 1e-3 and worst_rew < 1e-2 and done_mismatch == 0 and finite
+    ok = g.worst_obs < 1e-3 and g.worst_rew < 1e-2 and g.done_mismatch == 0 and finite
     print("GPU CHECK", "PASSED" if ok else "FAILED")
     sys.exit(0 if ok else 1)
+
+
+def _eager_step(env, state: dict, action: torch.Tensor) -> dict[str, torch.Tensor]:
+    """One step from ``state`` with the torch stages run eagerly (the outputs cloned)."""
+    env.set_extra_state(copy.deepcopy(state))
+    enabled = [stage.enabled for stage in env._stages]
+    for stage in env._stages:
+        stage.enabled = False
+    try:
+        out = env._core_step(action)
+        return {k: v.clone() for k, v in out.items() if isinstance(v, torch.Tensor)}
+    finally:
+        for stage, was in zip(env._stages, enabled):
+            stage.enabled = was
+
+
+class StepDiffs:
+    """Largest differences between two versions of the same steps: observation (all worlds, worlds that reset in
+    the step, the others), reward, done mismatches, and the per-column maximum of the observation difference."""
+
+    def __init__(self, env) -> None:
+        self.col_diff = torch.zeros(env.observation_spec["observation"].shape[-1], device=env.device)
+        self.worst_obs = self.worst_obs_reset = self.worst_obs_running = self.worst_rew = 0.0
+        self.done_mismatch = self.resets = 0
+
+    def add(self, a: dict[str, torch.Tensor], b: dict[str, torch.Tensor]) -> None:
+        diff = (a["observation"] - b["observation"]).abs()
+        reset = a["done"].reshape(-1).bool()
+        self.col_diff = torch.maximum(self.col_diff, diff.amax(0))
+        self.worst_obs = max(self.worst_obs, float(diff.max()))
+        if bool(reset.any()):
+            self.worst_obs_reset = max(self.worst_obs_reset, float(diff[reset].max()))
+        if bool((~reset).any()):
+            self.worst_obs_running = max(self.worst_obs_running, float(diff[~reset].max()))
+        self.worst_rew = max(self.worst_rew, float((a["reward"] - b["reward"]).abs().max()))
+        self.done_mismatch += int((a["done"] != b["done"]).sum())
+        self.resets += int(reset.sum())
+
+    def __str__(self) -> str:
+        return (f"max |d obs| {self.worst_obs:.3e} (worlds that reset: {self.worst_obs_reset:.3e}, others: "
+                f"{self.worst_obs_running:.3e}; {self.resets} resets), max |d reward| {self.worst_rew:.3e}, done "
+                f"mismatches {self.done_mismatch}")
 
 
 def _field_diffs(env, col_diff: torch.Tensor) -> dict[str, float]:
