@@ -433,6 +433,8 @@ def test_sizing_presets_and_paper_hyperparameters():
     assert (mt50.loss.nstep, mt50.loss.gradient_steps_per_iteration, mt50.max_iterations) == (16, 32, 61036)
     assert list(paper.arch.kwargs.hidden) == [512, 256, 128] and paper.arch.kwargs.activation == "relu"
     assert cpu.loss.replay_buffer_size >= cpu.loss.batch_size and cpu.torch_threads == 1
+    # MTBench's discount everywhere but the CPU preset (0.95: docs/off_policy.md, "Measured on the CPU")
+    assert (default.loss.gamma, mt50.loss.gamma, cpu.loss.gamma) == (0.99, 0.99, 0.95)
 
 
 # ---------------------------------------------------------------------------------------------- front door
