@@ -73,10 +73,10 @@ def per_task_gradients(
         grads = batched_per_task_gradients(task_losses, params)
         if grads is not None:
             return grads
-    if not task_losses.requires_grad:
-        return task_losses.new_zeros(k, sum(p.numel() for p in params))
-    task_losses = task_losses.reshape(k)
     out = task_losses.new_zeros(k, sum(p.numel() for p in params))
+    if not task_losses.requires_grad:
+        return out
+    task_losses = task_losses.reshape(k)
     for i in range(k):
         keep = retain_graph or i < k - 1
         out[i] = flatten(grads_or_zeros(task_losses[i], params, retain_graph=keep))
