@@ -7,9 +7,11 @@ Usage::
 ``RUN.mcap`` may also be a directory holding the segment files of one run. Prints a table of every scalar
 (last value, mean of the last N points, max, number of points), then a per-task table built from the
 scalars ``success/<task>`` and ``return/<task>`` plus the mean over tasks, and writes PNG learning curves:
-``success_mean.png`` (``success/mean`` vs frames), ``success_per_task.png`` and one ``loss_<group>.png`` per
-loss group. The x axis is the scalar ``frames`` logged at the same step when present (interpolated over
-steps for scalars logged at other steps), else the step. No torch import.
+``success_mean.png`` (``success/mean`` vs frames), ``success_per_task.png``, one ``loss_<group>.png`` per
+loss group and, for a Parkour curriculum run (``terrain_level/<task>`` scalars), ``terrain_level.png`` (mean
+terrain level per task and over tasks). The x axis is the scalar ``frames`` logged at the same step when present
+(interpolated over steps for scalars logged at other steps), else the step; ``--frames-offset N`` adds N to it
+(e.g. the frames of a flat pre-training stage that came before the run). No torch import.
 """
 
 from __future__ import annotations
@@ -112,12 +114,14 @@ def loss_groups(scalars: dict[str, Series]) -> dict[str, list[str]]:
     return groups
 
 
-def _x_axis(scalars: dict[str, Series]) -> tuple[str, Callable[[Sequence[int]], np.ndarray]]:
-    """``(label, steps -> x)``: frames when a ``frames`` scalar exists, else the identity on steps."""
+def _x_axis(scalars: dict[str, Series], frames_offset: float = 0.0
+            ) -> tuple[str, Callable[[Sequence[int]], np.ndarray]]:
+    """``(label, steps -> x)``: ``frames_offset`` + frames when a ``frames`` scalar exists, else the identity on
+    steps."""
     frames = scalars.get("frames")
     if not frames:
         return "step", lambda steps: np.asarray(steps, dtype=np.float64)
-    exact = {s: v for s, v in frames}
+    exact = {s: v + frames_offset for s, v in frames}
     fs = np.asarray(sorted(exact), dtype=np.float64)
     fv = np.asarray([exact[s] for s in sorted(exact)], dtype=np.float64)
 
@@ -126,22 +130,23 @@ def _x_axis(scalars: dict[str, Series]) -> tuple[str, Callable[[Sequence[int]], 
             [exact[s] if s in exact else float(np.interp(s, fs, fv)) for s in steps], dtype=np.float64
         )
 
-    return "frames", to_frames
+    return ("frames" if not frames_offset else f"frames (including {frames_offset:,.0f} before this run)"), to_frames
 
 
 def _safe_filename(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "unnamed"
 
 
-def plot_run(scalars: dict[str, Series], out_dir: Path, *, title: str = "") -> list[Path]:
-    """Write the learning-curve PNGs into ``out_dir`` and return their paths (figures without data are skipped)."""
+def plot_run(scalars: dict[str, Series], out_dir: Path, *, title: str = "", frames_offset: float = 0.0) -> list[Path]:
+    """Write the learning-curve PNGs into ``out_dir`` and return their paths (figures without data are skipped).
+    ``frames_offset`` is added to the frames axis."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    xlabel, to_x = _x_axis(scalars)
+    xlabel, to_x = _x_axis(scalars, frames_offset)
     written: list[Path] = []
 
     def save(fig: plt.Figure, name: str) -> None:
@@ -180,6 +185,22 @@ def plot_run(scalars: dict[str, Series], out_dir: Path, *, title: str = "") -> l
                   bbox_to_anchor=(1.01, 0.5))
         save(fig, "success_per_task.png")
 
+    level_tasks = [t for t in _task_names(scalars) if f"terrain_level/{t}" in scalars]
+    if level_tasks:
+        fig, ax = plt.subplots(figsize=(9, 5))
+        for task in level_tasks:
+            curve(ax, scalars[f"terrain_level/{task}"], task)
+        if scalars.get("terrain_level/mean"):
+            steps = [s for s, _ in scalars["terrain_level/mean"]]
+            ax.plot(to_x(steps), [v for _, v in scalars["terrain_level/mean"]], color="black", linewidth=2.5,
+                    label="mean")
+        ax.set(xlabel=xlabel, ylabel="terrain level (row of the grid)",
+               title=f"{title} mean terrain level of finished episodes".strip())
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize="x-small", ncol=max(1, math.ceil(len(level_tasks) / 20)), loc="center left",
+                  bbox_to_anchor=(1.01, 0.5))
+        save(fig, "terrain_level.png")
+
     for group, names in loss_groups(scalars).items():
         fig, ax = plt.subplots(figsize=(7, 4))
         for name in names:
@@ -203,6 +224,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None,
                         help="directory for the PNGs (default: <run without .mcap>_plots, or <dir>/plots)")
     parser.add_argument("--last", type=int, default=10, help="number of last points averaged (default 10)")
+    parser.add_argument("--frames-offset", type=float, default=0.0,
+                        help="frames added to the plots' frames axis (e.g. a flat pre-training stage's; default 0)")
     args = parser.parse_args(argv)
     if args.last < 1:
         parser.error("--last must be >= 1")
@@ -230,7 +253,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         out_dir = args.run / "plots" if args.run.is_dir() else args.run.with_name(f"{files[0].stem}_plots")
     title = files[0].stem
     print()
-    for path in plot_run(scalars, out_dir, title=title):
+    for path in plot_run(scalars, out_dir, title=title, frames_offset=args.frames_offset):
         print(f"wrote {path}")
     return 0
 

@@ -333,3 +333,60 @@ def test_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "junk.mcap").write_bytes(b"not an mcap file at all")
     assert logs_main([str(tmp_path / "junk.mcap")]) == 2
     assert "not a readable MCAP file" in capsys.readouterr().err
+
+
+def test_plots_terrain_levels_and_offsets_frames(tmp_path: Path) -> None:
+    """A Parkour curriculum run gets a terrain-level figure; --frames-offset shifts the frames axis (pre-training)."""
+    from mtbench.logs import _x_axis, plot_run
+
+    scalars = {
+        "frames": [(1, 1000.0), (2, 2000.0), (3, 3000.0)],
+        "success/stairs": [(1, 0.1), (2, 0.3), (3, 0.5)],
+        "terrain_level/stairs": [(1, 0.0), (2, 1.0), (3, 2.0)],
+        "terrain_level/gaps": [(1, 0.0), (3, 1.0)],
+        "terrain_level/mean": [(1, 0.0), (3, 1.5)],
+    }
+    label, to_x = _x_axis(scalars, frames_offset=500.0)
+    assert to_x([1, 3]).tolist() == [1500.0, 3500.0]
+    assert to_x([2.5]).tolist() == [3000.0]  # interpolated between logged steps, then shifted
+    assert label == "frames (including 500 before this run)"
+    assert _x_axis(scalars)[1]([2]).tolist() == [2000.0]
+    written = {p.name for p in plot_run(scalars, tmp_path, frames_offset=500.0)}
+    assert written == {"success_mean.png", "success_per_task.png", "terrain_level.png"}
+    assert (tmp_path / "terrain_level.png").read_bytes()[:8] == PNG_SIGNATURE
+    without = {p.name for p in plot_run({k: v for k, v in scalars.items() if "terrain" not in k}, tmp_path / "b")}
+    assert "terrain_level.png" not in without
+
+
+def test_resume_on_another_machine_continues_segment_numbering(tmp_path: Path) -> None:
+    """A checkpoint taken in segment 1 and resumed where the log directory is empty (a fresh GPU host) writes
+    segment 2, not a second segment 0: copied into one directory, the segments merge in the order they were
+    written (before the fix, the fresh host's segment 0 sorted first and the old segment 1 dropped its points)."""
+    here, there = tmp_path / "host_a", tmp_path / "host_b"
+    first = _logger(here)
+    for step in range(5):
+        first.log_metrics({"loss": float(step)}, step=step)
+    first.close()
+    second = _logger(here, if_exists="append")  # resumed once on the same machine: segment 1
+    for step in range(5, 10):
+        second.log_metrics({"loss": float(step)}, step=step)
+    state = second.state_dict()  # the checkpoint at step 9
+    second.close()
+
+    third = _logger(there, if_exists="append")
+    assert third.segment == 0
+    third.load_state_dict(state)
+    assert third.segment == 2 and third.path == there / "run.2.mcap"
+    assert sorted(p.name for p in there.glob("*.mcap")) == ["run.2.mcap"]  # the empty segment 0 is gone
+    for step in range(10, 15):
+        third.log_metrics({"loss": float(step)}, step=step)
+    third.close()
+    assert read_run_metadata(third.path)["segment"] == "2"
+    shutil.copy(third.path, here / third.path.name)
+    assert read_scalars(here)["loss"] == [(s, float(s)) for s in range(15)]
+
+    fourth = _logger(here, if_exists="append")  # the directory already holds segments 0-2: nothing to renumber
+    assert fourth.segment == 3
+    fourth.load_state_dict(state)
+    assert fourth.segment == 3
+    fourth.close()

@@ -128,6 +128,11 @@ class MCAPRun:
         """Whether :meth:`close` ran."""
         return self._closed
 
+    @property
+    def has_messages(self) -> bool:
+        """Whether anything but the metadata record was written (a channel exists)."""
+        return bool(self._channel_ids)
+
     def _channel(self, topic: str, schema_name: str) -> int:
         channel_id = self._channel_ids.get(topic)
         if channel_id is None:
@@ -498,6 +503,10 @@ class MCAPLogger(Logger):
                 self.segment = 0
             else:
                 self.segment = existing[-1][0] + 1
+        return self._open_segment()
+
+    def _open_segment(self) -> MCAPRun:
+        """Open the file of segment ``self.segment``."""
         path = segment_path(self.log_dir, self.exp_name, self.segment)
         if path.exists():  # a stray file with this name that belongs to another experiment
             raise FileExistsError(f"{path} exists and is not a segment of experiment {self.exp_name!r}")
@@ -663,6 +672,16 @@ class MCAPLogger(Logger):
 
     def _load_checkpoint_state(self, state_dict: Mapping[str, Any]) -> None:
         self._counters.update({str(k): int(v) for k, v in state_dict.get("counters", {}).items()})
+        saved = state_dict.get("segment")
+        if saved is not None and int(saved) >= self.segment and not self.experiment.has_messages:
+            # The checkpoint's log reached segment `saved` but this directory holds fewer segments (the run resumes
+            # on another machine, or log files were lost): continue its numbering, so that the segments of both
+            # places, put in one directory, merge in the order they were written.
+            old = self.experiment
+            old.close()
+            old.path.unlink(missing_ok=True)
+            self.segment = int(saved) + 1
+            self.experiment = self._open_segment()
 
     def __repr__(self) -> str:
         return f"MCAPLogger(exp_name={self.exp_name!r}, path={str(self.experiment.path)!r})"
