@@ -9,7 +9,9 @@ eagerly twice (restoring the state in between), and compares observation, reward
 during the step included). The physics graphs are shared by all paths, so graph-vs-eager differences come from the
 torch stages or from run-to-run nondeterminism of the physics (float atomics, amplified by contacts); the second
 eager step measures the latter (eager vs eager). Differences are reported separately for the worlds that reset in
-the step and for the others, and per observation field. A fourth argument ``cpu`` runs the same check on the CPU
+the step and for the others, and per observation field. The check passes when graph vs eager is within 1e-3 (obs)
+/ 1e-2 (reward), or within twice eager vs eager for the worlds that did not reset (``graphs_match``). A fourth
+argument ``cpu`` runs the same check on the CPU
 (no graphs of torch work there: graph vs eager is eager vs eager, and must be exactly 0).
 """
 
@@ -66,8 +68,19 @@ def main() -> None:
         torch.isfinite(td["next", "observation"][not_done]).all())
     print("rollout reward mean", td["next", "reward"].mean().item(), "finite", finite,
           "stats", {k: v.tolist() for k, v in env.pop_episode_stats().items()})
-    ok = g.worst_obs < 1e-3 and g.worst_rew < 1e-2 and g.done_mismatch == 0 and finite
+    ok = graphs_match(graph_vs_eager, eager_vs_eager) and finite
     print("GPU CHECK", "PASSED" if ok else "FAILED")
+
+
+def graphs_match(graph_vs_eager: "StepDiffs", eager_vs_eager: "StepDiffs", obs_tol: float = 1e-3,
+                 reward_tol: float = 1e-2) -> bool:
+    """The graphed step equals the eager one: no done mismatch, the worlds that reset within ``obs_tol`` (their
+    state comes from the torch stages alone), and the others within ``obs_tol`` / ``reward_tol`` or, when the
+    physics itself is not reproducible run to run (contacts amplify float-atomic ordering), within twice the
+    eager-vs-eager difference of the same steps."""
+    g, e = graph_vs_eager, eager_vs_eager
+    return (g.done_mismatch == 0 and g.worst_obs_reset < obs_tol
+            and g.worst_obs <= max(obs_tol, 2.0 * e.worst_obs) and g.worst_rew <= max(reward_tol, 2.0 * e.worst_rew))
     sys.exit(0 if ok else 1)
 
 
