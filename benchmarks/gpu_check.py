@@ -59,7 +59,6 @@ def main() -> None:
           _field_diffs(env, graph_vs_eager.col_diff.cpu()), flush=True)
     print("largest eager-vs-eager observation differences by field:",
           _field_diffs(env, eager_vs_eager.col_diff.cpu()), flush=True)
-    g = graph_vs_eager
     td = env.rollout(200, break_when_any_done=False)
     # TorchRL marks the ("next", "observation") of autoreset steps as unknown (NaN); every observation the
     # policy sees is in "observation"
@@ -70,6 +69,7 @@ def main() -> None:
           "stats", {k: v.tolist() for k, v in env.pop_episode_stats().items()})
     ok = graphs_match(graph_vs_eager, eager_vs_eager) and finite
     print("GPU CHECK", "PASSED" if ok else "FAILED")
+    sys.exit(0 if ok else 1)
 
 
 def graphs_match(graph_vs_eager: "StepDiffs", eager_vs_eager: "StepDiffs", obs_tol: float = 1e-3,
@@ -81,7 +81,6 @@ def graphs_match(graph_vs_eager: "StepDiffs", eager_vs_eager: "StepDiffs", obs_t
     g, e = graph_vs_eager, eager_vs_eager
     return (g.done_mismatch == 0 and g.worst_obs_reset < obs_tol
             and g.worst_obs <= max(obs_tol, 2.0 * e.worst_obs) and g.worst_rew <= max(reward_tol, 2.0 * e.worst_rew))
-    sys.exit(0 if ok else 1)
 
 
 def _eager_step(env, state: dict, action: torch.Tensor) -> dict[str, torch.Tensor]:
