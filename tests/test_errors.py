@@ -121,6 +121,8 @@ CASES: list[tuple[str, Callable[[Path, Any], Any], type[Exception], str]] = [
      r"^checkpoint\.every must be an integer >= 0 \(0: only the final checkpoint\); got -1$"),
     ("torch_threads=0", lambda t, e: _build(t, "torch_threads=0"), ValueError,
      r"^torch_threads must be an integer >= 1 or null \(null: torch's default\); got 0$"),
+    ("matmul_precision=tf32", lambda t, e: _build(t, "matmul_precision=tf32"), ValueError,
+     r"^unknown matmul_precision 'tf32'; valid choices: \['highest', 'high', 'medium'\]$"),
     ("seed=abc", lambda t, e: _build(t, "seed=abc"), ValueError, r"^seed must be an integer; got 'abc'$"),
     ("resume=<directory>", lambda t, e: _build(t, f"resume={t}"), ValueError,
      r"^resume={tmp} is a directory; give a checkpoint file written by mtbench \(e\.g\. {tmp}/checkpoints/last\.pt\)$"),
@@ -224,3 +226,15 @@ def test_the_logs_commands_the_docs_write_work(tmp_path: Path) -> None:
                              capture_output=True, text=True, cwd=ROOT)
         assert out.returncode == 0, (command, out.stderr)
         assert "per task" in out.stdout and "reach" in out.stdout, command
+
+
+def test_matmul_precision_is_applied_by_the_builder(tmp_path: Path) -> None:
+    """``matmul_precision`` reaches ``torch.set_float32_matmul_precision`` (TF32 / bf16 matmuls on CUDA)."""
+    before = torch.get_float32_matmul_precision()
+    try:
+        _build(tmp_path / "a", "matmul_precision=high")
+        assert torch.get_float32_matmul_precision() == "high"
+        _build(tmp_path / "b")  # the default restores full float32
+        assert torch.get_float32_matmul_precision() == "highest"
+    finally:
+        torch.set_float32_matmul_precision(before)

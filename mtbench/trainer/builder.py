@@ -180,8 +180,9 @@ def build_trainer(
     ``loss=ppo|grpo|pqn``) or an :class:`~mtbench.trainer.off_policy.OffPolicyTrainer` (``loss=sac``, built by
     :func:`~mtbench.trainer.sac_builder.build_sac_trainer`).
 
-    Validates the config (clear errors before anything is built), seeds, sets ``torch_threads``, fills the run
-    paths (``logging.exp_name``/``log_dir``, ``checkpoint.dir``; a resumed run keeps its own), builds the env
+    Validates the config (clear errors before anything is built), seeds, sets ``torch_threads`` and
+    ``matmul_precision``, fills the run paths (``logging.exp_name``/``log_dir``, ``checkpoint.dir``; a resumed run
+    keeps its own), builds the env
     (``env`` if given: any env with the mtbench contract) with per-task observation normalisation, the networks,
     the loss (and its value estimator), the gradient method, fused Adam and the hooks, and restores
     ``resume``'s checkpoint, or else copies the networks of ``pretrained`` (weights only).
@@ -195,6 +196,7 @@ def build_trainer(
         raise ValueError(f"cudagraphs=true needs a CUDA device (device={device})")
     if cfg.get("torch_threads"):
         torch.set_num_threads(int(cfg.torch_threads))
+    torch.set_float32_matmul_precision(str(cfg.get("matmul_precision", "highest")))
     seed_everything(int(cfg.seed))
     off_policy = cfg.loss.name == "sac"
     if env is None:

@@ -19,6 +19,7 @@ LOSSES = ("ppo", "grpo", "sac", "pqn")
 LR_SCHEDULES = ("fixed", "adaptive")
 LOGGERS = ("mcap", "none")
 PROGRESS_MODES = ("auto", "tqdm", "line", "none")
+MATMUL_PRECISIONS = ("highest", "high", "medium")
 DEVICE_CHOICES = "'auto', 'cpu', 'cuda' or 'cuda:<index>'"
 # measured on a 2-core CPU (cpu_small: 48 Meta-World worlds, 45 ms per env step incl. the policy)
 CPU_SECONDS_PER_WORLD_STEP = 1e-3
@@ -71,6 +72,7 @@ def check_config(cfg: DictConfig) -> None:
     if cfg.get("total_frames") is None:
         _int(cfg.get("max_iterations"), "max_iterations", 1)
     _int(cfg.get("torch_threads"), "torch_threads", 1, " (null: torch's default)", optional=True)
+    _choice(cfg.get("matmul_precision", "highest"), "matmul_precision", MATMUL_PRECISIONS)
     _int(cfg.get("success_window", 5), "success_window", 1)
     _int(cfg.get("max_nonfinite_iterations", 10), "max_nonfinite_iterations", 1)
     ck = cfg.get("checkpoint") or {}
@@ -246,6 +248,7 @@ __all__ = [
     "LOGGERS",
     "LOSSES",
     "LR_SCHEDULES",
+    "MATMUL_PRECISIONS",
     "PROGRESS_MODES",
     "as_config",
     "check_config",
