@@ -12,19 +12,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 from tensordict import TensorDict
 
+from cpu_runs import train_on_cpu
 from envs_for_tests import SyntheticMTEnv
 from mtbench.evaluation import EvalArgumentError, evaluate, main, parse_args, run_episodes
 from mtbench.evaluation.policy import read_checkpoint
 from mtbench.evaluation.render import BACKGROUND, tile
 from mtbench.evaluation.video import read_video, write_video
 from mtbench.logging import iter_messages, read_scalars
-from mtbench.trainer import build_trainer
 from mtbench.trainer.checkpoint import CHECKPOINT_VERSION, save_checkpoint
 
-CONF = str(Path(__file__).resolve().parents[1] / "conf")
 TASKS = ["reach", "drawer_close", "button_press_topdown"]
 EPISODE_STEPS = 30
 
@@ -37,15 +35,7 @@ def checkpoint(tmp_path_factory: pytest.TempPathFactory) -> Path:
         "arch.kwargs.hidden=[32,32]", "loss.horizon=8", "loss.minibatch_size=48", "loss.epochs=1",
         "max_iterations=1", "logging.progress=none", "checkpoint.every=0", f"checkpoint.dir={root / 'ckpt'}",
     ]
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        cfg = compose("config", overrides=overrides)
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        trainer = build_trainer(cfg)
-        trainer.train()
-    finally:
-        torch.set_num_threads(threads)
+    trainer, _ = train_on_cpu(overrides)
     return root / "ckpt" / "final.pt"
 
 

@@ -17,6 +17,7 @@ from torchrl.modules import ProbabilisticActor, TanhNormal, ValueOperator
 from torchrl.objectives import ClipPPOLoss, LossModule, SACLoss
 from torchrl.objectives.utils import ValueEstimators
 
+from cpu_runs import one_torch_thread
 from mtbench.objectives import (
     CAGrad,
     FAMO,
@@ -37,10 +38,8 @@ K, OBS, ACT, N = 3, 6, 2, 36
 
 @pytest.fixture(autouse=True)
 def _one_thread():
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+    with one_torch_thread():
+        yield
 
 
 # ---------------------------------------------------------------------------------------------- losses and batches

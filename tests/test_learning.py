@@ -12,12 +12,8 @@ import math
 from pathlib import Path
 
 import pytest
-import torch
-from hydra import compose, initialize_config_dir
 
-from mtbench.trainer import build_trainer
-
-CONF = str(Path(__file__).resolve().parents[1] / "conf")
+from cpu_runs import train_on_cpu
 
 
 @pytest.mark.slow
@@ -37,15 +33,7 @@ def test_short_seeded_cpu_training_learns_reach(tmp_path: Path) -> None:
         "checkpoint.save_final=false",
         f"checkpoint.dir={tmp_path}",
     ]
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        cfg = compose("config", overrides=overrides)
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)  # small batches: one thread is much faster on a 2-core machine
-    try:
-        trainer = build_trainer(cfg)
-        history = trainer.train()
-    finally:
-        torch.set_num_threads(threads)
+    trainer, history = train_on_cpu(overrides)  # one torch thread: small batches on a 2-core machine
     measured = [h["success/mean"] for h in history if math.isfinite(h["success/mean"])]  # NaN: no episode yet
     early, late = measured[0], history[-1]["success/mean"]
     print(f"reach success: first measured {early:.2f}, final {late:.2f}")

@@ -11,6 +11,7 @@ import torch
 from scipy.spatial.transform import Rotation
 from torchrl.envs.utils import check_env_specs
 
+from cpu_runs import one_torch_thread
 from mtbench.envs import make_env
 from mtbench.envs.parkour import curriculum as cl
 from mtbench.envs.parkour import robot
@@ -29,10 +30,8 @@ BOX = TERRAIN_NAMES.index("box_jump_even")
 @pytest.fixture(autouse=True, scope="module")
 def _one_torch_thread():
     """Tiny tensors: one torch thread avoids thread-pool wake-ups that dominate on a busy 2-core CPU."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+    with one_torch_thread():
+        yield
 
 
 def _env(columns=("flat",), num_rows=2, n=2, **kw) -> ParkourEnv:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import torch
 
+from cpu_runs import one_torch_thread
 from mtbench.envs.parkour import domain_rand, robot
 from mtbench.envs.parkour.scene import build_scene
 from mtbench.sim import WarpSim
@@ -17,10 +18,8 @@ from parkour_synthetic import SyntheticConfig, synthetic_terrain
 @pytest.fixture(autouse=True, scope="module")
 def _one_torch_thread():
     """Tiny tensors: one torch thread avoids thread-pool wake-ups that dominate on a busy 2-core CPU."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+    with one_torch_thread():
+        yield
 
 
 def _pd_torque(q_target, q, qdot, ms0=1.0, ms1=1.0):

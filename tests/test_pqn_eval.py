@@ -14,17 +14,16 @@ from types import SimpleNamespace
 
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 from tensordict import TensorDict
 from torchrl.data import Categorical, MultiCategorical, Unbounded
 
+from cpu_runs import train_on_cpu
 from mtbench.evaluation import EvalArgumentError, evaluate, load_policy, main, make_eval_env, parse_args
 from mtbench.evaluation.policy import read_checkpoint
 from mtbench.evaluation.q_policy import EvalQPolicy
-from mtbench.trainer import Trainer, build_trainer
+from mtbench.trainer import Trainer
 from mtbench.trainer.trainer import observation_norm
 
-CONF = str(Path(__file__).resolve().parents[1] / "conf")
 TASKS = ["reach", "drawer_close", "button_press_topdown"]
 EPISODE_STEPS = 30
 NUM_ENVS = 6
@@ -41,15 +40,7 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Trainer, Path]:
         "loss.epochs=2", "loss.minibatch_size=24", "loss.normalize_input=true", "max_iterations=2",
         "logging.progress=none", "checkpoint.every=0", f"checkpoint.dir={root / 'ckpt'}",
     ]
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        cfg = compose("config", overrides=overrides)
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        trainer = build_trainer(cfg)
-        trainer.train()
-    finally:
-        torch.set_num_threads(threads)
+    trainer, _ = train_on_cpu(overrides)
     return trainer, root / "ckpt" / "final.pt"
 
 

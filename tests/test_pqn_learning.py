@@ -11,16 +11,12 @@ return of 8.8 and success 0.00, the last 20 a return of 70.2 and success 0.54 (s
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 
-from mtbench.trainer import build_trainer
-
-CONF = str(Path(__file__).resolve().parents[1] / "conf")
+from cpu_runs import run_doc_snippet, train_on_cpu
 
 
 def _window(key: str, rows: list[dict[str, float]]) -> float:
@@ -37,13 +33,7 @@ def test_seeded_cpu_pqn_run_learns_reach(tmp_path: Path) -> None:
         "loss.end_epsilon=0.05", "loss.exploration_fraction=0.1", "max_iterations=100", "logging.progress=none",
         "checkpoint.every=0", "checkpoint.save_final=false", f"checkpoint.dir={tmp_path}", "torch_threads=1",
     ]
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        cfg = compose("config", overrides=overrides)
-    threads = torch.get_num_threads()
-    try:
-        history = build_trainer(cfg).train()
-    finally:
-        torch.set_num_threads(threads)
+    _, history = train_on_cpu(overrides)
     first, last = history[:10], history[-20:]
     r0, r1 = _window("return/mean", first), _window("return/mean", last)
     s0, s1 = _window("success/mean", first), _window("success/mean", last)
@@ -54,19 +44,8 @@ def test_seeded_cpu_pqn_run_learns_reach(tmp_path: Path) -> None:
 
 def test_stock_torchrl_pipeline_of_the_docs_runs_on_the_real_env() -> None:
     """The "Using the parts in a stock TorchRL pipeline" sketch of docs/pqn.md, on 8 CPU worlds of reach."""
-    text = (Path(__file__).resolve().parents[1] / "docs" / "pqn.md").read_text()
-    code = re.search(r"## Using the parts in a stock TorchRL pipeline\n\n```python\n(.*?)```", text, re.S).group(1)
-    for old, new in (('"cuda", 8192, 16, 50_000', '"cpu", 8, 16, 3'), ('"mt10_rand"', '"reach"'),
-                     ("hidden_dim=256", "hidden_dim=32")):
-        assert old in code, old
-        code = code.replace(old, new)
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        scope: dict = {}
-        exec(compile(code, "docs/pqn.md", "exec"), scope)
-    finally:
-        torch.set_num_threads(threads)
+    scope = run_doc_snippet("pqn.md", (('"cuda", 8192, 16, 50_000', '"cpu", 8, 16, 3'), ('"mt10_rand"', '"reach"'),
+                                       ("hidden_dim=256", "hidden_dim=32")))
     assert scope["i"] == 2 and scope["rollout"].batch_size == (8, 16)
     assert scope["rollout"]["action"].dtype == torch.int64 and torch.isfinite(scope["rollout"]["value_target"]).all()
     assert torch.isfinite(scope["out"]["loss_qvalue"])

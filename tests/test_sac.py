@@ -18,6 +18,7 @@ from tensordict import TensorDict
 from torchrl.objectives import SACLoss, SoftUpdate
 from torchrl.objectives.utils import ValueEstimators
 
+from cpu_runs import one_torch_thread
 from envs_for_tests import SyntheticMTEnv
 from mtbench.objectives import MTSACLoss, NStepTransitions, nstep_transitions
 from mtbench.trainer import NonFiniteGuard, OffPolicyTrainer, build_trainer, make_qvalue, make_sac_actor
@@ -34,10 +35,8 @@ ARCH = {"name": "mlp", "kwargs": {"hidden": [16, 16], "activation": "relu"}}
 @pytest.fixture(autouse=True)
 def _one_thread():
     """Small networks: one intra-op thread is much faster on a busy 2-core machine (restored afterwards)."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+    with one_torch_thread():
+        yield
 
 
 def _steps(rewards, dones, terminated, gamma_obs_offset: float = 0.0) -> TensorDict:

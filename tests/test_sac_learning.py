@@ -12,16 +12,12 @@ leave a wide margin, so the test fails only if learning is really broken.
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 
-from mtbench.trainer import build_trainer
-
-CONF = str(Path(__file__).resolve().parents[1] / "conf")
+from cpu_runs import run_doc_snippet, train_on_cpu
 
 
 @pytest.mark.slow
@@ -44,15 +40,7 @@ def test_short_seeded_cpu_sac_training_learns_reach(tmp_path: Path) -> None:
         "checkpoint.save_final=false",
         f"checkpoint.dir={tmp_path}",
     ]
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        cfg = compose("config", overrides=overrides)
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)  # small batches: one thread is much faster on a 2-core machine
-    try:
-        trainer = build_trainer(cfg)
-        history = trainer.train()
-    finally:
-        torch.set_num_threads(threads)
+    trainer, history = train_on_cpu(overrides)  # one torch thread: small batches on a 2-core machine
     returns = [h["return/mean"] for h in history if math.isfinite(h["return/mean"])]  # NaN: no episode yet
     early = returns[0]
     late = sum(h["return/mean"] for h in history[-100:]) / 100
@@ -64,19 +52,9 @@ def test_short_seeded_cpu_sac_training_learns_reach(tmp_path: Path) -> None:
 
 def test_stock_torchrl_pipeline_of_the_docs_runs_on_the_real_env() -> None:
     """The "Using the parts in a stock TorchRL pipeline" sketch of docs/off_policy.md, on 8 CPU worlds of reach."""
-    text = (Path(__file__).resolve().parents[1] / "docs" / "off_policy.md").read_text()
-    code = re.search(r"## Using the parts in a stock TorchRL pipeline\n\n```python\n(.*?)```", text, re.S).group(1)
-    for old, new in (('"mt10_rand", num_envs=4096, device="cuda"', '"reach", num_envs=8, device="cpu"'),
-                     ('device="cuda"', 'device="cpu"'), ("5_000_000", "10_000"), ("batch_size=8192", "batch_size=64"),
-                     ("range(1000)", "range(12)"), ("[512, 256, 128]", "[32, 32]")):
-        assert old in code, old
-        code = code.replace(old, new)
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        scope: dict = {}
-        exec(compile(code, "docs/off_policy.md", "exec"), scope)
-    finally:
-        torch.set_num_threads(threads)
+    scope = run_doc_snippet("off_policy.md", (
+        ('"mt10_rand", num_envs=4096, device="cuda"', '"reach", num_envs=8, device="cpu"'),
+        ('device="cuda"', 'device="cpu"'), ("5_000_000", "10_000"), ("batch_size=8192", "batch_size=64"),
+        ("range(1000)", "range(12)"), ("[512, 256, 128]", "[32, 32]")))
     assert len(scope["buffer"]) == 8 * (12 - 3)  # the first 4-step window completes after 4 env steps
     assert all(torch.isfinite(scope["out"][k]).all() for k in ("loss_actor", "loss_qvalue", "loss_alpha"))
