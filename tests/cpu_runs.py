@@ -1,21 +1,25 @@
 """Helpers for the tests that train or run documented code on the CPU: one intra-op thread (tiny tensors on a busy
-2-core machine), a config composed from ``conf/`` and trained to the end, and the stock-TorchRL sketch of a doc page
-executed with small sizes."""
+2-core machine), configs composed from ``conf/`` (and trained to the end), metrics of two runs compared, and the
+stock-TorchRL sketch of a doc page executed with small sizes."""
 
 from __future__ import annotations
 
 import contextlib
+import math
 import re
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
 import torch
 from hydra import compose, initialize_config_dir
+from omegaconf import DictConfig
 
 from mtbench.trainer import build_trainer
 
 ROOT = Path(__file__).resolve().parents[1]
 CONF = str(ROOT / "conf")
+#: metrics that measure time, not the run (they differ between two identical runs)
+TIMING_KEYS = ("fps", "fps_collect", "time/collect_s", "time/update_s")
 
 
 @contextlib.contextmanager
@@ -29,11 +33,24 @@ def one_torch_thread() -> Iterator[None]:
         torch.set_num_threads(threads)
 
 
+def compose_config(overrides: Sequence[str]) -> DictConfig:
+    """``conf/config.yaml`` composed with the Hydra ``overrides``."""
+    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
+        return compose("config", overrides=list(overrides))
+
+
+def assert_same_metrics(a: dict[str, float], b: dict[str, float]) -> None:
+    """The two iterations' metrics are equal, key by key (NaN equals NaN), except the timings."""
+    assert set(a) == set(b)
+    for key in a:
+        if key not in TIMING_KEYS:
+            assert a[key] == b[key] or (math.isnan(a[key]) and math.isnan(b[key])), key
+
+
 def train_on_cpu(overrides: Sequence[str]) -> tuple[Any, list[dict[str, float]]]:
     """Compose ``conf/config.yaml`` with ``overrides``, build the run and train it with one torch thread; returns
     the trainer and its per-iteration metrics."""
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        cfg = compose("config", overrides=list(overrides))
+    cfg = compose_config(overrides)
     with one_torch_thread():
         trainer = build_trainer(cfg)
         history = trainer.train()

@@ -18,7 +18,7 @@ from tensordict import TensorDict
 from torchrl.objectives import SACLoss, SoftUpdate
 from torchrl.objectives.utils import ValueEstimators
 
-from cpu_runs import one_torch_thread
+from cpu_runs import assert_same_metrics, compose_config, one_torch_thread
 from envs_for_tests import SyntheticMTEnv
 from mtbench.objectives import MTSACLoss, NStepTransitions, nstep_transitions
 from mtbench.trainer import NonFiniteGuard, OffPolicyTrainer, build_trainer, make_qvalue, make_sac_actor
@@ -26,7 +26,6 @@ from mtbench.trainer.checkpoint import load_checkpoint
 from mtbench.trainer.replay import load_replay_state_dict, make_replay_buffer, replay_state_dict
 
 CONF = str(Path(__file__).resolve().parents[1] / "conf")
-TIMING_KEYS = ("fps", "fps_collect", "time/collect_s", "time/update_s")
 K, STATE, ACT = 3, 5, 2
 ARCH = {"name": "mlp", "kwargs": {"hidden": [16, 16], "activation": "relu"}}
 
@@ -108,19 +107,11 @@ def _cfg(tmp_path: Path, *overrides: str):
         "logging.progress=none",
         f"logging.log_dir={tmp_path / 'runs'}",
     ]
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        return compose("config", overrides=[*base, *overrides])
+    return compose_config([*base, *overrides])
 
 
 def _env(**kwargs: Any) -> SyntheticMTEnv:
     return SyntheticMTEnv([4, 4, 4], max_episode_steps=6, seed=0, **kwargs)
-
-
-def _same_metrics(a: dict[str, float], b: dict[str, float]) -> None:
-    assert set(a) == set(b)
-    for key in a:
-        if key not in TIMING_KEYS:
-            assert a[key] == b[key] or (math.isnan(a[key]) and math.isnan(b[key])), key
 
 
 # ---------------------------------------------------------------------------------------------- n-step returns
@@ -376,7 +367,7 @@ def test_resume_is_exact_with_the_replay_buffer_and_without_it(tmp_path: Path):
     rest = resumed.train()
     assert len(rest) == 6
     for a, b in zip(full_history[6:], rest):  # the buffer wraps around (capacity 100) after iteration 11
-        _same_metrics(a, b)
+        assert_same_metrics(a, b)
     for (name, a), (_, b) in zip(full.loss.state_dict().items(), resumed.loss.state_dict().items()):
         assert torch.equal(a, b), name
     assert torch.equal(full.replay.storage[:100]["action"], resumed.replay.storage[:100]["action"])

@@ -12,8 +12,8 @@ from typing import Any
 
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 
+from cpu_runs import assert_same_metrics, compose_config
 from envs_for_tests import SyntheticMTEnv
 from mtbench.trainer import (
     Checkpointer,
@@ -25,9 +25,6 @@ from mtbench.trainer import (
     observation_norm,
 )
 from mtbench.trainer.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
-
-CONF = str(Path(__file__).resolve().parents[1] / "conf")
-TIMING_KEYS = ("fps", "fps_collect", "time/collect_s", "time/update_s")
 
 
 def _cfg(tmp_path: Path, *overrides: str):
@@ -43,8 +40,7 @@ def _cfg(tmp_path: Path, *overrides: str):
         "logging.progress=none",
         f"logging.log_dir={tmp_path / 'runs'}",
     ]
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        return compose("config", overrides=[*base, *overrides])
+    return compose_config([*base, *overrides])
 
 
 def _env(**kwargs: Any) -> SyntheticMTEnv:
@@ -53,13 +49,6 @@ def _env(**kwargs: Any) -> SyntheticMTEnv:
 
 def _params(trainer: Trainer) -> dict[str, torch.Tensor]:
     return {k: v.detach().clone() for k, v in trainer.loss.named_parameters()}
-
-
-def _same_metrics(a: dict[str, float], b: dict[str, float]) -> None:
-    assert set(a) == set(b)
-    for key in a:
-        if key not in TIMING_KEYS:
-            assert a[key] == b[key] or (math.isnan(a[key]) and math.isnan(b[key])), key
 
 
 class RecordingLogger:
@@ -157,7 +146,7 @@ def test_resume_continues_with_identical_counters_parameters_and_metrics(tmp_pat
     resumed_history = resumed.train()
     assert len(resumed_history) == 2
     for a, b in zip(full_history[2:], resumed_history):
-        _same_metrics(a, b)
+        assert_same_metrics(a, b)
     assert (resumed.iteration, resumed.frames, resumed.updates) == (full.iteration, full.frames, full.updates)
     for key, value in _params(full).items():
         assert torch.equal(value, _params(resumed)[key]), key
@@ -199,7 +188,7 @@ def test_first_ctrl_c_stops_after_the_env_step_with_a_checkpoint_that_resumes_ex
     rest = resumed.train()
     assert len(rest) == 2
     for a, b in zip(full_history[2:], rest):
-        _same_metrics(a, b)
+        assert_same_metrics(a, b)
 
 
 def test_sigterm_between_iterations_checkpoints_and_resume_continues(tmp_path: Path) -> None:
@@ -354,13 +343,11 @@ def test_cpu_default_overrides_and_resume_directory() -> None:
     assert resume_dir_overrides(["resume=/x/ckpt.pt"]) == ["hydra.run.dir=/x"]
     assert resume_dir_overrides(["resume=/x/ckpt.pt", "hydra.run.dir=/y"]) == []
     assert resume_dir_overrides(["seed=1"]) == []
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        cfg = compose("config", overrides=["env=cpu_small"])
+    cfg = compose_config(["env=cpu_small"])
     assert list(cfg.env.name) == ["reach", "drawer_close", "button_press_topdown"]
     assert cfg.loss.minibatch_size == 384 and cfg.max_iterations == 100
     assert (cfg.env.num_envs * cfg.loss.horizon) % cfg.loss.minibatch_size == 0
-    with initialize_config_dir(config_dir=CONF, version_base="1.3"):
-        grpo = compose("config", overrides=["env=mt10_rand", "loss=grpo"])
+    grpo = compose_config(["env=mt10_rand", "loss=grpo"])
     sizes = (grpo.env.num_envs, grpo.loss.horizon, grpo.loss.minibatch_size, grpo.max_iterations)
     assert sizes == (4096, 150, 38400, 1908)
 
@@ -411,4 +398,4 @@ def test_gradient_method_state_resumes_exactly(tmp_path: Path) -> None:
         resumed = build_trainer(_cfg(tmp_path, f"grad={grad}", "max_iterations=3", f"checkpoint.dir={ck}2",
                                      f"resume={ck / 'ckpt_000001.pt'}"), env=_env()).train()
         for a, b in zip(full[1:], resumed):
-            _same_metrics(a, b)
+            assert_same_metrics(a, b)
