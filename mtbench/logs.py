@@ -175,31 +175,27 @@ def plot_run(scalars: dict[str, Series], out_dir: Path, *, title: str = "", fram
         ax.grid(alpha=0.3)
         save(fig, "success_mean.png")
 
-    if tasks:
+    def per_task_figure(prefix: str, ylabel: str, what: str, name: str, mean_line: bool) -> None:
+        """One curve of ``<prefix>/<task>`` per task (with ``mean_line``, ``<prefix>/mean`` in black if logged)."""
+        names = [t for t in _task_names(scalars) if f"{prefix}/{t}" in scalars]
+        if not names:
+            return
         fig, ax = plt.subplots(figsize=(9, 5))
-        for task in tasks:
-            curve(ax, scalars[f"success/{task}"], task)
-        ax.set(xlabel=xlabel, ylabel="success rate", title=f"{title} success per task".strip())
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize="x-small", ncol=max(1, math.ceil(len(tasks) / 20)), loc="center left",
-                  bbox_to_anchor=(1.01, 0.5))
-        save(fig, "success_per_task.png")
-
-    level_tasks = [t for t in _task_names(scalars) if f"terrain_level/{t}" in scalars]
-    if level_tasks:
-        fig, ax = plt.subplots(figsize=(9, 5))
-        for task in level_tasks:
-            curve(ax, scalars[f"terrain_level/{task}"], task)
-        if scalars.get("terrain_level/mean"):
-            steps = [s for s, _ in scalars["terrain_level/mean"]]
-            ax.plot(to_x(steps), [v for _, v in scalars["terrain_level/mean"]], color="black", linewidth=2.5,
+        for task in names:
+            curve(ax, scalars[f"{prefix}/{task}"], task)
+        if mean_line and scalars.get(f"{prefix}/mean"):
+            steps = [s for s, _ in scalars[f"{prefix}/mean"]]
+            ax.plot(to_x(steps), [v for _, v in scalars[f"{prefix}/mean"]], color="black", linewidth=2.5,
                     label="mean")
-        ax.set(xlabel=xlabel, ylabel="terrain level (row of the grid)",
-               title=f"{title} mean terrain level of finished episodes".strip())
+        ax.set(xlabel=xlabel, ylabel=ylabel, title=f"{title} {what}".strip())
         ax.grid(alpha=0.3)
-        ax.legend(fontsize="x-small", ncol=max(1, math.ceil(len(level_tasks) / 20)), loc="center left",
+        ax.legend(fontsize="x-small", ncol=max(1, math.ceil(len(names) / 20)), loc="center left",
                   bbox_to_anchor=(1.01, 0.5))
-        save(fig, "terrain_level.png")
+        save(fig, name)
+
+    per_task_figure("success", "success rate", "success per task", "success_per_task.png", mean_line=False)
+    per_task_figure("terrain_level", "terrain level (row of the grid)", "mean terrain level of finished episodes",
+                    "terrain_level.png", mean_line=True)
 
     for group, names in loss_groups(scalars).items():
         fig, ax = plt.subplots(figsize=(7, 4))
