@@ -23,9 +23,10 @@ from torchrl.envs import TransformedEnv
 from torchrl.modules import EGreedyModule, QValueModule
 from torchrl.objectives.value import TDLambdaEstimator
 
+from cpu_runs import assert_same_metrics
 from envs_for_tests import SyntheticMTEnv
 from test_trainer import _cfg as trainer_cfg
-from test_trainer import _env, _same_metrics
+from test_trainer import _env
 from mtbench.envs import DiscreteActions, bin_values, make_env
 from mtbench.envs.metaworld import MetaWorldEnv
 from mtbench.modules import decomposed_q_value, greedy_value, make_q_network, make_q_policy
@@ -446,7 +447,7 @@ def test_resume_is_exact_between_iterations_and_inside_a_rollout(tmp_path: Path)
     resumed = build_trainer(_cfg(tmp_path, f"resume={tmp_path / 'full' / 'ckpt_000002.pt'}"), env=_env())
     assert resumed.get_hook(EpsilonSchedule).epsilon == full_history[1]["train/epsilon"]
     for a, b in zip(full_history[2:], resumed.train(), strict=True):
-        _same_metrics(a, b)
+        assert_same_metrics(a, b)
     for (name, p), q in zip(full.loss.named_parameters(), resumed.loss.parameters(), strict=True):
         assert torch.equal(p, q), name
     assert torch.equal(full.optimizer.param_groups[0]["lr"], resumed.optimizer.param_groups[0]["lr"])
@@ -457,7 +458,7 @@ def test_resume_is_exact_between_iterations_and_inside_a_rollout(tmp_path: Path)
     ckpt = tmp_path / "stop" / "ckpt_000001_step0003.pt"
     rest = build_trainer(_cfg(tmp_path, f"resume={ckpt}", f"checkpoint.dir={tmp_path / 'stop2'}"), env=_env()).train()
     for a, b in zip(full_history[1:], rest, strict=True):
-        _same_metrics(a, b)
+        assert_same_metrics(a, b)
 
 
 def test_non_finite_updates_are_skipped_with_radam(tmp_path: Path) -> None:
