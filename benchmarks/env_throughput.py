@@ -102,7 +102,7 @@ def run_timed(env, steps: int, warmup: int, policy: str = "random") -> tuple[flo
 
 def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, substeps: int | None,
             parallel_streams: bool = True, torch_graphs: bool = True, policy: str = "random",
-            robot_collision: str = "primitive", box_box: str = "primitive", terrain_collision: str = "legs",
+            robot_collision: str = "primitive", box_box: str = "primitive", terrain_collision: str = "all",
             terrain_representation: str = "grid", num_rows: int = 10) -> dict:
     parkour = is_parkour(env_name)
     if parkour:
@@ -166,7 +166,7 @@ def main() -> None:
                              "trot / stand: Parkour controllers (default: random for Meta-World, trot for Parkour)")
     parser.add_argument("--robot-collision", choices=("primitive", "mesh"), default="primitive")
     parser.add_argument("--box-box", choices=("primitive", "gjk"), default="primitive")
-    parser.add_argument("--terrain-collision", choices=("feet", "legs", "all"), default="legs",
+    parser.add_argument("--terrain-collision", choices=("feet", "legs", "all"), default="all",
                         help="Parkour: robot geoms that touch the terrain")
     parser.add_argument("--terrain-representation", choices=("tiles", "grid"), default="tiles",
                         help="Parkour: one heightfield per tile (default) or one for the whole grid")

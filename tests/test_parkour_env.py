@@ -219,7 +219,8 @@ def test_reward_terms_on_constructed_states() -> None:
 
 def test_env_reward_is_the_clipped_sum_of_its_terms_and_legs_collide() -> None:
     """A Go1 lying on its side touches the ground with its right thighs and calves: the collision term counts them
-    (``terrain_collision="legs"``); standing robots only touch with their feet."""
+    (the default ``terrain_collision="all"`` also lets the trunk and hips touch; only thighs and calves count);
+    standing robots only touch with their feet."""
     env = _env(n=2, num_rows=1, domain_randomization=False)
     td = env.reset()
     for _ in range(15):

@@ -270,3 +270,26 @@ def test_set_const_gives_per_world_constants_like_mujoco_c(scene) -> None:
         np.testing.assert_allclose(sim.model_field("body_invweight0")[w].numpy(), mc.body_invweight0, rtol=2e-3,
                                    atol=1e-6)
     assert sim.model_field("body_subtreemass")[0, 1] != sim.model_field("body_subtreemass")[1, 1]
+
+
+def test_trunk_touches_the_terrain_by_default(terrain) -> None:
+    """The default collision set is the original's (every robot geom touches the terrain): a Go1 dropped upside
+    down comes to rest on its trunk box (base height = the box's half height). With ``"legs"`` the box passes
+    into the ground until the thighs catch the robot; policies trained that way crawl with the trunk inside the
+    terrain (docs/parkour.md)."""
+    rest = {}
+    for choice in (None, "legs"):
+        scene = build_scene(terrain, representation="grid") if choice is None else build_scene(terrain, choice, "grid")
+        m = scene.mjm
+        d = mujoco.MjData(m)
+        d.qpos[:] = robot.standing_qpos((1.0, 2.0, 0.25))
+        d.qpos[3:7] = (0.0, 1.0, 0.0, 0.0)  # roll pi: upside down
+        d.ctrl[:] = robot.DEFAULT_JOINT_POS
+        for _ in range(150):  # 0.75 s
+            mujoco.mj_step(m, d)
+        rest[choice] = float(d.qpos[2])
+    box = mujoco.mjtGeom.mjGEOM_BOX
+    trunk = [g for g in range(m.ngeom) if m.geom_bodyid[g] == m.body("trunk").id and m.geom_type[g] == box]
+    half_height = float(m.geom_size[trunk[0], 2])
+    assert abs(rest[None] - half_height) < 0.01, (rest, half_height)
+    assert rest["legs"] < half_height - 0.03, (rest, half_height)

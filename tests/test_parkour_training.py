@@ -73,7 +73,8 @@ def test_stage_config_and_key(tmp_path: Path) -> None:
                "+env.overrides.curriculum=true")
     stage = flat_stage_config(cfg)
     assert stage.env.name == "parkour_flat" and stage.env.num_envs == 42
-    assert dict(stage.env.overrides) == {"num_rows": 2}  # the grid kept, the fine-tuning's curriculum dropped
+    # the grid and the collision set kept, the fine-tuning's curriculum dropped
+    assert dict(stage.env.overrides) == {"num_rows": 2, "terrain_collision": "all"}
     assert stage.grad.name == "none"  # gradient methods start from the plain architecture's weights
     assert stage.max_iterations == 1 and stage.total_frames is None and stage.seed == 0
     key = stage_key(stage)

@@ -75,8 +75,10 @@ class ParkourEnv(EnvBase):
         curriculum: Parkour-hard-cl's terrain curriculum (``curriculum.py``); False: fixed rows.
         max_init_level: highest initial row with the curriculum (2).
         episode_length: policy steps per episode (2000 = 40 s).
-        terrain_collision: robot geoms that touch the terrain, ``"feet"``, ``"legs"`` (feet, calves, thighs) or
-            ``"all"`` (``robot.TERRAIN_COLLISIONS``); the collision penalty needs ``"legs"`` or ``"all"``.
+        terrain_collision: robot geoms that touch the terrain, ``"all"`` (default, as the original: + hips and
+            trunk), ``"legs"`` (feet, calves, thighs) or ``"feet"`` (``robot.TERRAIN_COLLISIONS``); the collision
+            penalty needs ``"legs"`` or ``"all"``. Without the trunk, policies learn to crawl with the trunk inside
+            the ground (docs/parkour.md).
         terrain_representation: ``"tiles"`` (one heightfield per tile, selected per world; physics in tile
             frames) or ``"grid"`` (one heightfield for the whole grid; MuJoCo Warp's heightfield contacts go wrong
             more than ~20 m from its centre: small grids only); see ``scene.py``.
@@ -107,7 +109,7 @@ class ParkourEnv(EnvBase):
         curriculum: bool = False,
         max_init_level: int = cl.MAX_INIT_LEVEL,
         episode_length: int = 2000,
-        terrain_collision: str = "legs",
+        terrain_collision: str = "all",
         terrain_representation: str = "tiles",
         tile_margin: float = 1.0,
         domain_randomization: bool = True,

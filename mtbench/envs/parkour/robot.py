@@ -77,7 +77,7 @@ def _collision_class(body_name: str) -> str:
     return "all"
 
 
-def go1_spec(terrain_collision: str = "legs") -> mujoco.MjSpec:
+def go1_spec(terrain_collision: str = "all") -> mujoco.MjSpec:
     """Menagerie Go1 with PD actuators, URDF-like collision shapes, foot bodies and the original's joint dynamics.
 
     Args:
