@@ -57,6 +57,13 @@ def test_robot_joint_order_and_collision_sets() -> None:
         assert len(colliding) == expected, (choice, colliding)
         # never with itself: no robot geom has a conaffinity
         assert not np.any(mc.geom_conaffinity[mc.geom_bodyid != 0])
+    # the joint limits are the original URDF's (hip +-46 deg, thigh -60..240 deg, calf -154.5..-52.5 deg)
+    mc = robot.go1_spec().compile()
+    for name in robot.JOINT_NAMES:
+        lo, hi = mc.joint(name).range
+        expected = {"hip": (-46.0, 46.0), "thigh": (-60.0, 240.0), "calf": (-154.5, -52.5)}[name.split("_")[1]]
+        assert mc.jnt_limited[mc.joint(name).id]
+        np.testing.assert_allclose(np.degrees([lo, hi]), expected, atol=0.01)
     # the feet are massless bodies welded to the calves: the robot keeps Menagerie's mass
     menagerie = mujoco.MjModel.from_xml_path(str(robot.menagerie_dir("unitree_go1") / "go1.xml"))
     assert m.body_mass.sum() == pytest.approx(menagerie.body_mass.sum())

@@ -11,8 +11,8 @@ graph with no torch work in between; the motor strengths are batched ``actuator_
 Joint order: Menagerie's order is already the original's, ``FR, FL, RR, RL`` x ``(hip, thigh, calf)``; joint ``i``
 is ``qpos[7 + i]``/``qvel[6 + i]`` and actuator ``i``.
 
-Joint dynamics: the original's URDF joints have no damping or friction (the PD's ``KD`` is the only damping), so
-Menagerie's joint damping (1-2 N m s/rad) and friction loss (0.2 N m) are removed. Menagerie's rotor armature
+Joint dynamics: the original's URDF joint limits (``JOINT_RANGES``) replace Menagerie's wider ones; its joints have
+no damping or friction (the PD's ``KD`` is the only damping), so Menagerie's joint damping (1-2 N m s/rad) and friction loss (0.2 N m) are removed. Menagerie's rotor armature
 (0.01 kg m^2, the Go1's reflected rotor inertia) is kept: with the explicit ``-KD * qdot`` term at 5 ms, a swinging
 calf (about 0.006 kg m^2 about the knee) alone would be past the explicit damping limit ``KD * dt / I < 2``.
 
@@ -48,6 +48,10 @@ SIM_DT = 0.005  # s
 DECIMATION = 4  # physics steps per policy step (policy at 50 Hz)
 BASE_INIT_HEIGHT = 0.42  # m above the spawn origin
 JOINT_ARMATURE = 0.01  # kg m^2, Menagerie's value
+# joint position limits of the original's URDF (go1_with_camera.urdf; IsaacGym enforces them), rad: Menagerie's are
+# wider (hip +-0.863, thigh -0.686..4.501, calf -2.818..-0.888)
+JOINT_RANGES = {"hip": (-0.802851455917, 0.802851455917), "thigh": (-1.0471975512, 4.18879020479),
+                "calf": (-2.69653369433, -0.916297857297)}
 
 BASE_BODY = "trunk"
 FOOT_BODIES = tuple(f"{leg}_foot" for leg in LEGS)
@@ -101,6 +105,7 @@ def go1_spec(terrain_collision: str = "all") -> mujoco.MjSpec:
             joint.damping = [0.0, 0.0, 0.0]
             joint.frictionloss = 0.0
             joint.armature = JOINT_ARMATURE
+            joint.range = JOINT_RANGES[joint.name.split("_")[1]]
 
     def add_collision(body: mujoco.MjsBody, name: str, **kwargs) -> None:
         on = _collision_class(body.name) in enabled
