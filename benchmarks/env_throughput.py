@@ -32,6 +32,7 @@ from tensordict import TensorDictBase
 
 from mtbench.envs import make_env
 from mtbench.envs.metaworld.policies import scripted_policy
+from mtbench.envs.parkour import robot as parkour_robot
 from mtbench.envs.parkour.settings import SETTINGS as PARKOUR_SETTINGS
 from mtbench.envs.parkour.terrains import TERRAIN_NAMES as PARKOUR_TERRAINS
 from parkour_collision import TROT_HZ, controller_targets
@@ -102,8 +103,9 @@ def run_timed(env, steps: int, warmup: int, policy: str = "random") -> tuple[flo
 
 def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, substeps: int | None,
             parallel_streams: bool = True, torch_graphs: bool = True, policy: str = "random",
-            robot_collision: str = "primitive", box_box: str = "primitive", terrain_collision: str = "all",
-            terrain_representation: str = "grid", num_rows: int = 10) -> dict:
+            robot_collision: str = "primitive", box_box: str = "primitive",
+            terrain_collision: str = parkour_robot.DEFAULT_TERRAIN_COLLISION, terrain_representation: str = "grid",
+            num_rows: int = 10) -> dict:
     parkour = is_parkour(env_name)
     if parkour:
         if policy == "scripted":
@@ -166,7 +168,8 @@ def main() -> None:
                              "trot / stand: Parkour controllers (default: random for Meta-World, trot for Parkour)")
     parser.add_argument("--robot-collision", choices=("primitive", "mesh"), default="primitive")
     parser.add_argument("--box-box", choices=("primitive", "gjk"), default="primitive")
-    parser.add_argument("--terrain-collision", choices=("feet", "legs", "all"), default="all",
+    parser.add_argument("--terrain-collision", choices=parkour_robot.TERRAIN_COLLISIONS,
+                        default=parkour_robot.DEFAULT_TERRAIN_COLLISION,
                         help="Parkour: robot geoms that touch the terrain")
     parser.add_argument("--terrain-representation", choices=("tiles", "grid"), default="tiles",
                         help="Parkour: one heightfield per tile (default) or one for the whole grid")

@@ -109,7 +109,7 @@ class ParkourEnv(EnvBase):
         curriculum: bool = False,
         max_init_level: int = cl.MAX_INIT_LEVEL,
         episode_length: int = 2000,
-        terrain_collision: str = "all",
+        terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISION,
         terrain_representation: str = "tiles",
         tile_margin: float = 1.0,
         domain_randomization: bool = True,

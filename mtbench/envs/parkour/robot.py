@@ -12,9 +12,10 @@ Joint order: Menagerie's order is already the original's, ``FR, FL, RR, RL`` x `
 is ``qpos[7 + i]``/``qvel[6 + i]`` and actuator ``i``.
 
 Joint dynamics: the original's URDF joint limits (``JOINT_RANGES``) replace Menagerie's wider ones; its joints have
-no damping or friction (the PD's ``KD`` is the only damping), so Menagerie's joint damping (1-2 N m s/rad) and friction loss (0.2 N m) are removed. Menagerie's rotor armature
-(0.01 kg m^2, the Go1's reflected rotor inertia) is kept: with the explicit ``-KD * qdot`` term at 5 ms, a swinging
-calf (about 0.006 kg m^2 about the knee) alone would be past the explicit damping limit ``KD * dt / I < 2``.
+no damping or friction (the PD's ``KD`` is the only damping), so Menagerie's joint damping (1-2 N m s/rad) and
+friction loss (0.2 N m) are removed. Menagerie's rotor armature (0.01 kg m^2, the Go1's reflected rotor inertia) is
+kept: with the explicit ``-KD * qdot`` term at 5 ms, a swinging calf (about 0.006 kg m^2 about the knee) alone would
+be past the explicit damping limit ``KD * dt / I < 2``.
 
 Collision geometry (``terrain_collision`` below): Menagerie's 42 collision primitives (several overlapping capsules
 and cylinders per link, trunk box + 2 cylinders + 6 head capsules) are replaced by a URDF-like set, the shapes of
@@ -64,6 +65,9 @@ ROBOT_BIT = 2
 # Which robot geoms collide with the terrain: "feet" (4 spheres), "legs" (+ calf and thigh capsules), "all"
 # (+ hip capsules and the trunk box). The collision penalty needs thigh/calf contacts ("legs" or "all").
 TERRAIN_COLLISIONS = ("feet", "legs", "all")
+# the default of the env, the scene and the benchmarks: the original's set (without the trunk, policies learn to
+# crawl with the trunk inside the ground)
+DEFAULT_TERRAIN_COLLISION = "all"
 
 # URDF-like collision shapes (link frames of the Menagerie model, which has the URDF's kinematics)
 TRUNK_HALF_SIZE = (0.1881, 0.04675, 0.057)  # URDF trunk box 0.3762 x 0.0935 x 0.114
@@ -81,7 +85,7 @@ def _collision_class(body_name: str) -> str:
     return "all"
 
 
-def go1_spec(terrain_collision: str = "all") -> mujoco.MjSpec:
+def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION) -> mujoco.MjSpec:
     """Menagerie Go1 with PD actuators, URDF-like collision shapes, foot bodies and the original's joint dynamics.
 
     Args:

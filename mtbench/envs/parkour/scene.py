@@ -74,7 +74,7 @@ def _tile_grid_shape(terrain) -> tuple[int, int]:
     return terrain.tile_origins.shape[0], terrain.tile_origins.shape[1]
 
 
-def build_scene(terrain, terrain_collision: str = "all", representation: str = "tiles",
+def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISION, representation: str = "tiles",
                 tile_margin: float = 1.0) -> ParkourScene:
     """Compile the Go1 and ``terrain`` (a ``terrain.Terrain``) into one MuJoCo model.
 
