@@ -300,3 +300,43 @@ def test_trunk_touches_the_terrain_by_default(terrain) -> None:
     half_height = float(m.geom_size[trunk[0], 2])
     assert abs(rest[None] - half_height) < 0.01, (rest, half_height)
     assert rest["legs"] < half_height - 0.03, (rest, half_height)
+
+
+def _limit_overshoot(solref: tuple[float, ...] | None = None, solimp: tuple[float, ...] | None = None) -> dict:
+    """Largest excursion (rad) past the upper limit of the FR hip and FR calf when their PD targets are 5 rad beyond
+    the limit and they start at the opposite limit (base fixed in the air, 1 s of MuJoCo C)."""
+    spec = robot.go1_spec()
+    for joint in list(spec.joints):
+        if joint.type == mujoco.mjtJoint.mjJNT_FREE:
+            spec.delete(joint)
+        elif solref is not None:
+            joint.solref_limit, joint.solimp_limit = list(solref), list(solimp)
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    hip, calf = m.joint("FR_hip_joint"), m.joint("FR_calf_joint")
+    d.qpos[:] = robot.DEFAULT_JOINT_POS
+    d.qpos[hip.qposadr[0]], d.qpos[calf.qposadr[0]] = hip.range[0], calf.range[0]
+    target = robot.DEFAULT_JOINT_POS.copy()
+    target[0], target[2] = hip.range[1] + 5.0, calf.range[1] + 5.0
+    worst = {"hip": 0.0, "calf": 0.0}
+    for _ in range(200):
+        d.ctrl[:] = target
+        mujoco.mj_step(m, d)
+        worst["hip"] = max(worst["hip"], float(d.qpos[hip.qposadr[0]] - hip.range[1]))
+        worst["calf"] = max(worst["calf"], float(d.qpos[calf.qposadr[0]] - calf.range[1]))
+    return worst
+
+
+def test_joint_limits_are_stiff() -> None:
+    """IsaacGym enforces the URDF limits as hard constraints. A hip and a calf swung into their limits at the full
+    33.5 N m stop within 0.12 / 0.3 rad of them (MuJoCo's default soft limits let them through by 0.26 / 0.56 rad,
+    and trained policies then splayed their legs 0.2-0.5 rad past the hip range); held there, they settle at the
+    limit."""
+    m = robot.go1_spec().compile()
+    hinge = m.jnt_type == mujoco.mjtJoint.mjJNT_HINGE
+    np.testing.assert_allclose(m.jnt_solref[hinge], np.tile(robot.JOINT_LIMIT_SOLREF, (12, 1)))
+    np.testing.assert_allclose(m.jnt_solimp[hinge], np.tile(robot.JOINT_LIMIT_SOLIMP, (12, 1)))
+    stiff = _limit_overshoot()
+    soft = _limit_overshoot((0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0))  # MuJoCo's defaults
+    assert stiff["hip"] < 0.12 and stiff["calf"] < 0.3, stiff
+    assert soft["hip"] > 0.2 and soft["calf"] > 0.45, soft

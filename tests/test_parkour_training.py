@@ -68,7 +68,7 @@ def test_given_pretrained_weights_skip_the_stage(tmp_path: Path) -> None:
     assert not needs_flat_stage(cfg)
 
 
-def test_stage_config_and_key(tmp_path: Path) -> None:
+def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     cfg = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", "grad=pcgrad", "seed=7", "max_iterations=9",
                "+env.overrides.curriculum=true")
     stage = flat_stage_config(cfg)
@@ -87,6 +87,10 @@ def test_stage_config_and_key(tmp_path: Path) -> None:
                   ["pretrain.seed=1"], ["pretrain.num_envs=84"], ["env.overrides.num_rows=3"]):
         differs = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other)
         assert stage_key(flat_stage_config(differs)) != key, other
+    # and so does a new robot model (a physics change)
+    monkeypatch.setattr("mtbench.envs.parkour.robot.MODEL_VERSION", "another-model")
+    assert stage_key(stage) != key
+    monkeypatch.undo()
     assert stage_directory(cfg).parent == tmp_path / "pretrained"
     assert stage_directory(cfg).name == f"moore-{key[:12]}"
 

@@ -8,8 +8,8 @@ does this by itself:
 
 1. :func:`flat_stage_config`: the run's config with ``env.name=parkour_flat`` (same worlds and env overrides, no
    curriculum), ``grad=none``, ``pretrain.iterations`` iterations and ``pretrain.seed``;
-2. :func:`stage_key`: a SHA-256 over what shapes the weights (architecture, loss, flat env, iterations, seed); the
-   gradient method and the run's own setting, seed and length are not part of it, so all Parkour settings and
+2. :func:`stage_key`: a SHA-256 over what shapes the weights (architecture, loss, flat env, iterations, seed, robot
+   model version); the gradient method and the run's own setting, seed and length are not part of it, so all Parkour settings and
    gradient methods of one architecture share one pre-training, as in the original;
 3. :func:`pretrain_flat`: ``<pretrain.dir>/<arch>-<key>/checkpoints/final.pt`` is reused when it exists; else the
    stage is trained there (continuing from its ``last.pt`` after a crash or kill), under a file lock so that runs
@@ -79,8 +79,12 @@ def flat_stage_config(cfg: DictConfig) -> DictConfig:
 
 
 def stage_key(stage: DictConfig) -> str:
-    """SHA-256 (hex) of what shapes the pre-trained weights: ``arch``, ``loss``, the flat env, iterations, seed."""
+    """SHA-256 (hex) of what shapes the pre-trained weights: ``arch``, ``loss``, the flat env, iterations, seed and
+    the robot model's version (``robot.MODEL_VERSION``: a physics change invalidates older stages)."""
+    from ..envs.parkour.robot import MODEL_VERSION
+
     material = {key: _plain(stage.get(key)) for key in ("arch", "loss", "env", "max_iterations", "seed")}
+    material["robot_model"] = MODEL_VERSION
     return hashlib.sha256(json.dumps(material, sort_keys=True).encode()).hexdigest()
 
 

@@ -15,7 +15,11 @@ Joint dynamics: the original's URDF joint limits (``JOINT_RANGES``) replace Mena
 no damping or friction (the PD's ``KD`` is the only damping), so Menagerie's joint damping (1-2 N m s/rad) and
 friction loss (0.2 N m) are removed. Menagerie's rotor armature (0.01 kg m^2, the Go1's reflected rotor inertia) is
 kept: with the explicit ``-KD * qdot`` term at 5 ms, a swinging calf (about 0.006 kg m^2 about the knee) alone would
-be past the explicit damping limit ``KD * dt / I < 2``.
+be past the explicit damping limit ``KD * dt / I < 2``. The joint limits are stiff (``JOINT_LIMIT_SOLREF``,
+``JOINT_LIMIT_SOLIMP``): IsaacGym enforces them as hard constraints, and with MuJoCo's default soft limits (time
+constant 0.02 s, impedance 0.9-0.95) the saturated PD torques pushed trained policies' hips 0.2-0.5 rad past the URDF
+range in 17-38% of the steps (legs splayed sideways; up to 2.3 rad in a fall) and the calves past the knee stop in
+18-90%; with the stiff limits, 1-3% (tests/test_parkour_physics.py, docs/parkour.md).
 
 Collision geometry (``terrain_collision`` below): Menagerie's 42 collision primitives (several overlapping capsules
 and cylinders per link, trunk box + 2 cylinders + 6 head capsules) are replaced by a URDF-like set, the shapes of
@@ -49,6 +53,12 @@ SIM_DT = 0.005  # s
 DECIMATION = 4  # physics steps per policy step (policy at 50 Hz)
 BASE_INIT_HEIGHT = 0.42  # m above the spawn origin
 JOINT_ARMATURE = 0.01  # kg m^2, Menagerie's value
+# joint limit constraints: the stiffest stable time constant at SIM_DT (2 dt) and near-hard impedance
+JOINT_LIMIT_SOLREF = (0.01, 1.0)
+JOINT_LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+MODEL_VERSION = "go1-2026-11-24-stiff-limits"
+"""Changes whenever the robot's physics changes, so that flat pre-training checkpoints of an older model are not
+reused (it is part of the pre-training stage key)."""
 # joint position limits of the original's URDF (go1_with_camera.urdf; IsaacGym enforces them), rad: Menagerie's are
 # wider (hip +-0.863, thigh -0.686..4.501, calf -2.818..-0.888)
 JOINT_RANGES = {"hip": (-0.802851455917, 0.802851455917), "thigh": (-1.0471975512, 4.18879020479),
@@ -110,6 +120,8 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION) -> mujoco.MjSpe
             joint.frictionloss = 0.0
             joint.armature = JOINT_ARMATURE
             joint.range = JOINT_RANGES[joint.name.split("_")[1]]
+            joint.solref_limit = list(JOINT_LIMIT_SOLREF)
+            joint.solimp_limit = list(JOINT_LIMIT_SOLIMP)
 
     def add_collision(body: mujoco.MjsBody, name: str, **kwargs) -> None:
         on = _collision_class(body.name) in enabled
