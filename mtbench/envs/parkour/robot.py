@@ -18,8 +18,8 @@ kept: with the explicit ``-KD * qdot`` term at 5 ms, a swinging calf (about 0.00
 be past the explicit damping limit ``KD * dt / I < 2``. The joint limits are stiff (``JOINT_LIMIT_SOLREF``,
 ``JOINT_LIMIT_SOLIMP``): IsaacGym enforces them as hard constraints, and with MuJoCo's default soft limits (time
 constant 0.02 s, impedance 0.9-0.95) the saturated PD torques pushed trained policies' hips 0.2-0.5 rad past the URDF
-range in 17-38% of the steps (legs splayed sideways; up to 2.3 rad in a fall) and the calves past the knee stop in
-18-90%; with the stiff limits, 1-3% (tests/test_parkour_physics.py, docs/parkour.md).
+range in 17-33% of the steps (legs splayed sideways; up to 2.3 rad in a fall) and the calves past the knee stop in
+18-90%; with the stiff limits, 0-3% (tests/test_parkour_physics.py, docs/parkour.md).
 
 Collision geometry (``terrain_collision`` below): Menagerie's 42 collision primitives (several overlapping capsules
 and cylinders per link, trunk box + 2 cylinders + 6 head capsules) are replaced by a URDF-like set, the shapes of
