@@ -304,7 +304,7 @@ def test_trunk_touches_the_terrain_by_default(terrain) -> None:
 
 def _limit_overshoot(solref: tuple[float, ...] | None = None, solimp: tuple[float, ...] | None = None) -> dict:
     """Largest excursion (rad) past the upper limit of the FR hip and FR calf when their PD targets are 5 rad beyond
-    the limit and they start at the opposite limit (base fixed in the air, 1 s of MuJoCo C)."""
+    the limit and they start at the opposite limit (base fixed in the air, 1 s of MuJoCo C), and where they end."""
     spec = robot.go1_spec()
     for joint in list(spec.joints):
         if joint.type == mujoco.mjtJoint.mjJNT_FREE:
@@ -319,11 +319,13 @@ def _limit_overshoot(solref: tuple[float, ...] | None = None, solimp: tuple[floa
     target = robot.DEFAULT_JOINT_POS.copy()
     target[0], target[2] = hip.range[1] + 5.0, calf.range[1] + 5.0
     worst = {"hip": 0.0, "calf": 0.0}
-    for _ in range(200):
+    for _ in range(200):  # 1 s
         d.ctrl[:] = target
         mujoco.mj_step(m, d)
         worst["hip"] = max(worst["hip"], float(d.qpos[hip.qposadr[0]] - hip.range[1]))
         worst["calf"] = max(worst["calf"], float(d.qpos[calf.qposadr[0]] - calf.range[1]))
+    worst["hip_end"] = float(d.qpos[hip.qposadr[0]] - hip.range[1])
+    worst["calf_end"] = float(d.qpos[calf.qposadr[0]] - calf.range[1])
     return worst
 
 
@@ -339,4 +341,5 @@ def test_joint_limits_are_stiff() -> None:
     stiff = _limit_overshoot()
     soft = _limit_overshoot((0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0))  # MuJoCo's defaults
     assert stiff["hip"] < 0.12 and stiff["calf"] < 0.3, stiff
+    assert abs(stiff["hip_end"]) < 0.01 and abs(stiff["calf_end"]) < 0.01, stiff
     assert soft["hip"] > 0.2 and soft["calf"] > 0.45, soft

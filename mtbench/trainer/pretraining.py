@@ -9,8 +9,8 @@ does this by itself:
 1. :func:`flat_stage_config`: the run's config with ``env.name=parkour_flat`` (same worlds and env overrides, no
    curriculum), ``grad=none``, ``pretrain.iterations`` iterations and ``pretrain.seed``;
 2. :func:`stage_key`: a SHA-256 over what shapes the weights (architecture, loss, flat env, iterations, seed, robot
-   model version); the gradient method and the run's own setting, seed and length are not part of it, so all Parkour settings and
-   gradient methods of one architecture share one pre-training, as in the original;
+   model version); the gradient method and the run's own setting, seed and length are not part of it, so all
+   Parkour settings and gradient methods of one architecture share one pre-training, as in the original;
 3. :func:`pretrain_flat`: ``<pretrain.dir>/<arch>-<key>/checkpoints/final.pt`` is reused when it exists; else the
    stage is trained there (continuing from its ``last.pt`` after a crash or kill), under a file lock so that runs
    started in parallel wait for one pre-training instead of repeating it.
