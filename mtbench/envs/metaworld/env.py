@@ -128,6 +128,7 @@ class MetaWorldEnv(EnvBase):
         self._generator.manual_seed(seed)
         self.blocks: list[tuple[MetaWorldTask, TaskState]] = []
         self._dense_rewards: list[Reward] = []
+        self._success_rewards: list[Reward] = []
         self.slices: list[slice] = []
         start = 0
         for name, count in zip(tasks, counts):
@@ -138,6 +139,7 @@ class MetaWorldEnv(EnvBase):
             task = task_cls(mjm, dev)
             self.blocks.append((task, task.new_state(sim, count)))
             self._dense_rewards.append(task.dense_reward(reward_version))
+            self._success_rewards.append(task.success_reward_fn(reward_version))
             self.slices.append(slice(start, start + count))
             start += count
         self.task_id = torch.repeat_interleave(torch.arange(self.num_tasks, device=dev),
@@ -263,11 +265,12 @@ class MetaWorldEnv(EnvBase):
         :func:`~.reward_utils.mtbench_tolerance`)."""
         rewards, successes = [], []
         with mtbench_tolerance(self.reward_version == "paper"):
-            for (task, s), dense_reward, sl in zip(self.blocks, self._dense_rewards, self.slices):
+            for (task, s), dense_reward, success_reward, sl in zip(self.blocks, self._dense_rewards,
+                                                                  self._success_rewards, self.slices):
                 a = action[sl]
                 scaled = dense_reward(s, a) * (task.dense_scale * self.reward_scale)
                 success = task.success(s, a)
-                rewards.append(torch.where(success, task.success_reward(s, a), scaled))
+                rewards.append(torch.where(success, success_reward(s, a), scaled))
                 successes.append(success)
         return torch.cat(rewards), torch.cat(successes)
 

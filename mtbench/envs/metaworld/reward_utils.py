@@ -35,7 +35,10 @@ __all__ = [
     "mtbench_tolerance",
     "above_floor_funnel",
     "check_unit_interval",
+    "grasp_carry_reward",
     "gripper_caging_reward",
+    "polyline_distance",
+    "progress",
     "hamacher_product",
     "hamacher_product_checked",
     "rect_prism_tolerance",
@@ -427,3 +430,57 @@ def scaled_norm(d: Tensor, scale: tuple[float, float, float]) -> Tensor:
     ``torch.norm(err * scale)``; no host-to-device copy)."""
     return torch.linalg.vector_norm(torch.stack([d[..., 0] * scale[0], d[..., 1] * scale[1], d[..., 2] * scale[2]],
                                                 dim=-1), dim=-1)
+
+
+# --- reward_version="v2": staged shaping of our design (docs/metaworld.md, "reward_version v2") ---
+# Weights of the stages of :func:`grasp_carry_reward`: reaching the grasp point, closing the gripper there, lifting
+# the object in the hand, carrying it to the goal. Their sum (8) stays below the success reward (10), so that
+# success always pays more than any dense step.
+V2_REACH, V2_GRIP, V2_LIFT, V2_CARRY = 1.0, 1.0, 1.0, 5.0
+
+
+def progress(dist: Tensor, dist0: Tensor, radius: float) -> Tensor:
+    """Linear progress ``[N]`` in [0, 1] of a distance towards ``radius``: 0 at (or beyond) the start distance
+    ``dist0``, 1 within ``radius``. Unlike a long-tail ``tolerance`` it pays every centimetre of the way the same."""
+    span = (dist0 - radius).clamp_min(1e-3)
+    return ((dist0 - dist) / span).clamp(0.0, 1.0)
+
+
+def polyline_distance(p: Tensor, points: list[Tensor], stage: Tensor) -> Tensor:
+    """Length ``[N]`` of the path from ``p`` through ``points[stage], points[stage + 1], ...`` to the last point
+    (the goal). ``points`` are ``[N, 3]`` waypoints ending with the goal; ``stage`` ``[N]`` (integer) is the index of
+    the next waypoint of each world, e.g. 0 before a wall, ``len(points) - 1`` once the way to the goal is free."""
+    k = len(points)
+    # tails[i]: length of the fixed part points[i] -> ... -> points[-1]
+    tails = [p.new_zeros(p.shape[:-1])]
+    for i in range(k - 2, -1, -1):
+        tails.insert(0, tails[0] + torch.linalg.vector_norm(points[i + 1] - points[i], dim=-1))
+    options = torch.stack([torch.linalg.vector_norm(points[i] - p, dim=-1) + tails[i] for i in range(k)], dim=-1)
+    return options.gather(-1, stage.long().clamp(0, k - 1).unsqueeze(-1)).squeeze(-1)
+
+
+def grasp_carry_reward(action: Tensor, tcp: Tensor, grasp_point: Tensor, grasp_init: Tensor, init_tcp: Tensor,
+                       rise: Tensor, carry: Tensor, carry0: Tensor, *, hold_radius: float, lift_height: float,
+                       place_radius: float) -> Tensor:
+    """The staged v2 reward ``[N]`` (0..8) of a grasp-and-carry task::
+
+        d     = ‖tcp − grasp_point‖
+        reach = tolerance(d, (0, hold_radius), margin=‖init_tcp − grasp_init‖, long_tail)      # 0..1
+        near  = d < hold_radius
+        grip  = near · clip(action[3], 0, 1)                       # closing the gripper at the grasp point
+        lift  = near · clip(rise / lift_height, 0, 1)               # the object raised while in the hand
+        carry = near · progress(carry, carry0, place_radius)        # the object brought along its path to the goal
+        r = 1·reach + 1·grip + 1·lift + 5·carry
+
+    ``rise`` is the object's height above its initial height, ``carry``/``carry0`` its current/initial path
+    length to the goal (e.g. :func:`polyline_distance`). Every stage pays for progress towards the next sub-goal,
+    and the stages are gated by the hand being at the grasp point, so that pushing the object away does not pay.
+    """
+    d = torch.linalg.vector_norm(tcp - grasp_point, dim=-1)
+    d0 = torch.linalg.vector_norm(init_tcp - grasp_init, dim=-1)
+    reach = tolerance(d, bounds=(0.0, hold_radius), margin=(d0 - hold_radius).clamp_min(0.05), sigmoid="long_tail")
+    near = (d < hold_radius).to(d.dtype)
+    grip = near * action[..., 3].clamp(0.0, 1.0)
+    lift = near * (rise / lift_height).clamp(0.0, 1.0)
+    carried = near * progress(carry, carry0, place_radius)
+    return V2_REACH * reach + V2_GRIP * grip + V2_LIFT * lift + V2_CARRY * carried
