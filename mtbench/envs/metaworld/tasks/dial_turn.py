@@ -7,7 +7,7 @@ import math
 import mujoco
 import torch
 
-from ..reward_utils import hamacher_product, mtbench_gripper_openness, tolerance
+from ..reward_utils import hamacher_product, mtbench_gripper_openness, progress, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
 
@@ -41,6 +41,33 @@ def dial_turn_reward(tcp: torch.Tensor, obj: torch.Tensor, goal: torch.Tensor, o
                       margin=((obj_start - init_tcp).norm(dim=-1) - REACH_RADIUS).abs(), sigmoid="gaussian")
     reach = hamacher_product(reach, tcp_closed)
     return hamacher_product(reach, in_place)
+
+
+V2_REACH_HEIGHT = 0.05  # v2: the fingers work at the bar's height (the scripted policy's TCP height: 5 cm)
+V2_REACH_RADIUS = 0.03  # v2: TCP within 3 cm of the point above the bar's end counts as at the bar
+
+
+def dial_turn_reward_v2(tcp: torch.Tensor, obj: torch.Tensor, goal: torch.Tensor, obj_start: torch.Tensor,
+                        init_tcp: torch.Tensor) -> torch.Tensor:
+    """``reward_version="v2"`` dense reward ``[n]`` (0..8)::
+
+        at_bar = obj + (0, 0, 0.05)                            # the bar's end, at the fingers' working height
+        reach  = tolerance(‖tcp − at_bar‖, (0, .03), margin=‖init_tcp − at_bar_start‖, long_tail)
+        turn   = progress(‖obj − goal‖, ‖obj_start − goal‖, .06)   # linear in the chord to the goal, 1 at success
+        r = 2·max(reach, turn) + 6·turn
+
+    Why: the paper-era reward multiplies reaching (a 5 mm Gaussian, times a closed gripper) with the turn's
+    long-tail term, which is 0.1 until the dial has turned, so it pays at most ~0.1 per step before the dial moves
+    and the turn itself is paid only near the goal. Here reaching the bar pays up to 2 on its own and every
+    radian of turn pays the same (6 over the 1.81 rad that success needs); ``max(reach, turn)`` keeps the reach
+    term once the dial turns, so that leaving the bar while turning costs nothing.
+    """
+    at_bar = offset(obj, 0.0, 0.0, V2_REACH_HEIGHT)
+    d0 = (init_tcp - offset(obj_start, 0.0, 0.0, V2_REACH_HEIGHT)).norm(dim=-1)
+    reach = tolerance((tcp - at_bar).norm(dim=-1), bounds=(0.0, V2_REACH_RADIUS),
+                      margin=(d0 - V2_REACH_RADIUS).clamp_min(0.05), sigmoid="long_tail")
+    turn = progress((obj - goal).norm(dim=-1), (obj_start - goal).norm(dim=-1), TARGET_RADIUS)
+    return 2.0 * torch.maximum(reach, turn) + 6.0 * turn
 
 
 def dial_turn_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -81,6 +108,7 @@ class DialTurn(MetaWorldTask):
     * Dense reward: :func:`dial_turn_reward` (MTBench before ``* .01``; closedness ``1 − ‖pads‖ / 0.095``).
       MTBench's ``dial_push_position_init`` (the observed point at the start, buffer ``obj_start``) is measured at
       every reset (MTBench: once, at the first observation of the run, like ``init_tcp``).
+    * ``reward_version="v2"``: :func:`dial_turn_reward_v2` (reach the bar, then linear pay per radian turned).
     * Success: ``‖obj − goal‖ <= 0.06``; success steps pay 10.
     * Differences: ``init_tcp`` and ``obj_start`` per reset; Meta-World's ``tolerance`` inside the bounds (MTBench's
       returns 0 there when the margin is positive).
@@ -121,6 +149,9 @@ class DialTurn(MetaWorldTask):
     def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         tcp_closed = 1.0 - mtbench_gripper_openness(s.left_pad, s.right_pad)
         return dial_turn_reward(s.tcp, s.obj_pos, s.goal, s.buffers["obj_start"], s.init_tcp, tcp_closed)
+
+    def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return dial_turn_reward_v2(s.tcp, s.obj_pos, s.goal, s.buffers["obj_start"], s.init_tcp)
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return dial_turn_success(s.obj_pos, s.goal)
