@@ -11,11 +11,11 @@ import torch
 
 from mtbench.envs.metaworld.registry import TASKS
 from mtbench.envs.metaworld.reward_utils import grasp_carry_reward, polyline_distance, progress
-from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, door_open, peg_insert_side,
-                                          pick_place_wall, push_wall, shelf_place)
+from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, peg_insert_side, pick_place_wall,
+                                          push_wall, shelf_place)
 
-V2_TASKS = {"basketball", "box_close", "dial_turn", "disassemble", "door_open", "peg_insert_side", "pick_place_wall",
-            "push_wall", "shelf_place"}
+V2_TASKS = {"basketball", "box_close", "dial_turn", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
+            "shelf_place"}
 GRIP = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
 OPEN = torch.tensor([[0.0, 0.0, 0.0, -1.0]])
 
@@ -83,15 +83,6 @@ def test_dial_turn_v2() -> None:
     torch.testing.assert_close(dial_turn.dial_turn_reward_v2(far_tcp, turned, goal, start, init_tcp),
                                torch.tensor([1.0 + 3.0]), atol=1e-3, rtol=0.0)
     close(dial_turn.dial_turn_reward_v2(far_tcp, goal, goal, start, init_tcp), 8.0)  # at the goal: 8
-
-
-def test_door_open_v2() -> None:
-    handle, init_tcp = p(0.3, 0.85, 0.15), p(0.0, 0.6, 0.2)
-    close(door_open.door_open_reward_v2(handle, handle, handle, init_tcp, torch.tensor([0.0])), 1.0)
-    far = p(-0.4, 0.4, 0.5)
-    half = torch.tensor([-door_open.V2_OPEN_ANGLE / 2])
-    close(door_open.door_open_reward_v2(far, handle, handle, init_tcp, half), 0.5 + 3.5)
-    close(door_open.door_open_reward_v2(far, handle, handle, init_tcp, torch.tensor([-1.6])), 8.0)
 
 
 def test_basketball_v2() -> None:

@@ -28,8 +28,6 @@ handle point): ``|handle_x − goal_x| ≤ 0.08`` with goal = safe + (−0.3, �
 Reset (MTBench ``obj_low/obj_high`` (.35, −.1) .. (.45, 0) at table + .3/2): safe at x ~ U[0, 0.1],
 y ~ U[0.95, 1.05], z = 0.15 (Meta-World v3: y in [0.85, 0.95]; MTBench moved the safe 10 cm back), door closed.
 
-``reward_version="v2"``: :func:`door_open_reward_v2` (reach the handle, then linear pay per radian opened).
-
 Differences: the hand starts at Meta-World's TCP position (0, 0.6, 0.2); ``init_tcp`` is recorded at every reset
 (MTBench: once). The safe's own collision geoms move with it (``WarpSim.set_body_pos``).
 """
@@ -69,31 +67,6 @@ def door_open_reward(tcp: torch.Tensor, handle: torch.Tensor, theta: torch.Tenso
         math.pi / 2.0 + math.pi / 6.0 - door_angle, bounds=(0.0, 0.5), margin=math.pi / 3.0, sigmoid="long_tail")
     opened = torch.where(door_angle > 1.5, torch.ones_like(opened), opened)
     return 2.0 * hamacher_product(ready_to_open, tcp_opened) + 8.0 * opened
-
-
-V2_OPEN_ANGLE = 1.49  # rad: the smallest opening at which the success rule holds (see the module docstring)
-V2_REACH_RADIUS = 0.05  # v2: TCP within 5 cm of the handle point counts as at the handle
-
-
-def door_open_reward_v2(tcp: torch.Tensor, handle: torch.Tensor, handle_init: torch.Tensor, init_tcp: torch.Tensor,
-                        theta: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..8), ``theta`` the hinge angle (negative = open)::
-
-        reach  = tolerance(‖tcp − handle‖, (0, .05), margin=‖init_tcp − handle_init‖, long_tail)
-        opened = clip(−theta / 1.49, 0, 1)            # linear in the opening angle, 1 where success starts
-        r = 1·max(reach, opened) + 7·opened
-
-    Why: the paper-era reward pays for the hand 15 cm in front of the handle with an *open* gripper (2 at most)
-    and for the opening through a long-tail term centred on 2.1 rad, which pays 0.2 + ~0.04 for the first 0.5 rad
-    of opening: pulling the door the first 30 degrees is barely rewarded. Here every radian of opening pays the
-    same, and the reach term points at the handle itself; ``max(reach, opened)`` keeps it once the door opens, so
-    that the hand may leave the handle to push the door further from its inner side (as the scripted policy does).
-    """
-    d0 = (init_tcp - handle_init).norm(dim=-1)
-    reach = tolerance((tcp - handle).norm(dim=-1), bounds=(0.0, V2_REACH_RADIUS),
-                      margin=(d0 - V2_REACH_RADIUS).clamp_min(0.05), sigmoid="long_tail")
-    opened = (-theta / V2_OPEN_ANGLE).clamp(0.0, 1.0)
-    return torch.maximum(reach, opened) + 7.0 * opened
 
 
 def door_open_success(handle: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -139,9 +112,6 @@ class DoorOpen(MetaWorldTask):
     def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         tcp_opened = mtbench_gripper_openness(s.left_pad, s.right_pad)
         return door_open_reward(s.tcp, s.obj_pos, s.sim.qpos[:, self.door_qpos], tcp_opened)
-
-    def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
-        return door_open_reward_v2(s.tcp, s.obj_pos, s.obj_init_pos, s.init_tcp, s.sim.qpos[:, self.door_qpos])
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return door_open_success(s.obj_pos, s.goal)
