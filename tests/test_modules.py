@@ -518,6 +518,18 @@ def test_gram_schmidt_from_gram_matrix_matches_the_vector_recursion(dependence):
     assert coef.dtype == torch.float64 and torch.equal(coef.triu(1), torch.zeros_like(coef))  # lower triangular
 
 
+def test_gram_schmidt_gradients_gradcheck_and_batched_backward():
+    """The Gram matrix's own backward is exact (gradcheck, float64) and vmappable: the batched per-task backward of
+    the gradient methods (``is_grads_batched``) equals one backward per output."""
+    h = torch.randn(3, 5, 7, dtype=torch.float64, requires_grad=True)
+    assert torch.autograd.gradcheck(gram_schmidt, (h,))
+    hf = torch.randn(3, 5, 7, requires_grad=True)
+    out = gram_schmidt(hf).sum(dim=(0, 2))
+    (batched,) = torch.autograd.grad(out, hf, torch.eye(5), is_grads_batched=True, retain_graph=True)
+    looped = torch.stack([torch.autograd.grad(out[i], hf, retain_graph=True)[0] for i in range(5)])
+    torch.testing.assert_close(batched, looped)
+
+
 def test_gram_schmidt_dependent_and_zero_experts_are_finite():
     h = torch.randn(3, 5, 16, requires_grad=True)
     dep = torch.stack([h[0], 2.0 * h[0], torch.zeros_like(h[0])])  # dependent and all-zero expert outputs

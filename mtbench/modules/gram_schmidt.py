@@ -6,6 +6,27 @@ from __future__ import annotations
 import torch
 
 
+class _Gram(torch.autograd.Function):
+    """``A[n, i, j] = h_i . h_j`` for ``h [E, N, D]``; the backward is the one matmul ``(dA + dA^T) H`` (autograd
+    of the einsum would run two, one per operand, and add them)."""
+
+    generate_vmap_rule = True
+
+    @staticmethod
+    def forward(h: torch.Tensor) -> torch.Tensor:
+        return torch.einsum("ind,jnd->nij", h, h)
+
+    @staticmethod
+    def setup_context(ctx, inputs, output) -> None:
+        ctx.save_for_backward(inputs[0])
+
+    @staticmethod
+    def backward(ctx, grad: torch.Tensor) -> torch.Tensor:
+        (h,) = ctx.saved_tensors
+        # matmul, not einsum: the batched per-task backward (is_grads_batched) vmaps this, einsum has no rule there
+        return torch.matmul(grad + grad.transpose(-1, -2), h.transpose(0, 1)).transpose(0, 1)
+
+
 def gram_schmidt_coefficients(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
     """Lower-triangular ``C [N, E, E]`` (float64) with ``u_i = sum_j C[n, i, j] h_j`` for ``h [E, N, D]``.
 
@@ -17,8 +38,7 @@ def gram_schmidt_coefficients(h: torch.Tensor, eps: float = 1e-4, eps_abs: float
     ``|r_i|^2`` accurate where it is small against ``|h_i|^2`` (nearly dependent experts).
     """
     e = h.shape[0]
-    h64 = h.to(torch.float64)
-    a = torch.einsum("ind,jnd->nij", h64, h64)  # [N, E, E]
+    a = _Gram.apply(h.to(torch.float64))  # [N, E, E]
     diag = torch.diagonal(a, dim1=-2, dim2=-1)  # |h_i|^2, [N, E]
     eye = torch.eye(e, dtype=torch.float64, device=h.device)
     rows: list[torch.Tensor] = []
