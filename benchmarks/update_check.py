@@ -102,6 +102,7 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     )
     print(
         f"{'PASS' if ok else 'FAIL'} grad={grad} arch={args.arch} matmul_precision={args.matmul_precision} "
+        f"linalg={args.linalg or 'default'} "
         f"graphed={graphed.graph and graphed._stage.captured} minibatches={count}: max |param graphed - eager| "
         f"{d_graph:.3e}, eager - eager {d_eager:.3e}, max update {moved:.3e}; mean {loss_key} graphed "
         f"{float(means_g[loss_key]):.6f} eager {float(means_e[loss_key]):.6f}",
@@ -120,7 +121,11 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--matmul-precision", default="highest", choices=["highest", "high", "medium"])
     p.add_argument("--atol", type=float, default=1e-5, help="parameter tolerance when eager runs agree exactly")
     p.add_argument("--device", default="cuda")
+    p.add_argument("--linalg", default=None, choices=["default", "cusolver", "magma"],
+                   help="torch.backends.cuda.preferred_linalg_library (CAGrad's KKT solve: lu_factor / lu_solve)")
     args = p.parse_args(argv)
+    if args.linalg is not None:
+        torch.backends.cuda.preferred_linalg_library(args.linalg)
     unknown = sorted(set(args.grads) - set(GRADS))
     if unknown:
         raise ValueError(f"--grads: unknown {unknown}; valid choices: {list(GRADS)}")

@@ -760,7 +760,9 @@ def _mt_ppo_minibatch(k: int = 3, state: int = 5, n: int = 48):
 def test_graphed_minibatch_step_has_no_host_sync(monkeypatch, method):
     """The whole step the CUDA-graphed update captures -- MTPPOLoss, the method's backward, grad-norm clip, fused
     Adam with a tensor lr -- converts no tensor to Python and uses no data-dependent shape (nonzero, boolean-mask
-    indexing), on the CPU with the conversions patched to raise."""
+    indexing), on the CPU with the conversions patched to raise. (C++-internal CPU checks are not seen: e.g. the
+    CPU ``lu_solve`` behind CAGrad's ``linalg.solve_ex`` checks its pivots with two ``item()`` -- CPU only;
+    benchmarks/update_check.py captures the step on a GPU.)"""
     import mtbench.objectives.task_wrapper as tw
     from mtbench.trainer.builder import graph_safe_update
     from mtbench.trainer.update import MinibatchUpdate
