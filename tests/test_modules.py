@@ -604,6 +604,34 @@ def test_moore_single_head_uses_one_hot_and_tanh_bound():
         make("moore", agg_activation=("linear", "softsign"))
 
 
+# ------------------------------------------------------------------------------------------ task rows
+@pytest.mark.parametrize("arch", ["moore", "moore_mh", "paco", "soft_modularization", "care", "care_mh", "multihead"])
+def test_task_rows_equal_plain_indexing_in_every_architecture(monkeypatch, arch):
+    """``task_rows`` (matmul backward) gives the same outputs and gradients as ``table[task_id]`` (indexed scatter
+    backward) in every architecture that gathers per-task rows."""
+    from mtbench.modules import care, moore, paco, soft_modularization, stacked_linear
+    from mtbench.modules.task_rows import task_rows
+
+    torch.manual_seed(0)
+    net = make(arch)
+    tid = torch.arange(40).remainder(K)
+    obs = batch(tid)
+    params = [p for p in net.parameters() if p.requires_grad]
+    out = net(obs, tid)
+    g = torch.randn_like(out)
+    grads = torch.autograd.grad(out, params, g, allow_unused=True)
+    for mod in (care, moore, paco, soft_modularization, stacked_linear):
+        monkeypatch.setattr(mod, "task_rows", lambda table, index: table[index])
+    ref = net(obs, tid)
+    torch.testing.assert_close(out, ref, atol=0, rtol=0)
+    for a, b in zip(grads, torch.autograd.grad(ref, params, g, allow_unused=True), strict=True):
+        assert (a is None) == (b is None)
+        if a is not None:
+            torch.testing.assert_close(a, b, atol=1e-6, rtol=1e-5)
+    table = torch.randn(K, 3, 2, dtype=torch.float64, requires_grad=True)
+    assert torch.autograd.gradcheck(lambda t: task_rows(t, tid), (table,))
+
+
 # ------------------------------------------------------------------------------------------ Hydra presets
 def _preset_files():
     return sorted(CONF_DIR.glob("*.yaml"))

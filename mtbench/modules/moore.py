@@ -12,6 +12,7 @@ from .gram_schmidt import gram_schmidt, gram_schmidt_coefficients
 from .inputs import check_sizes, flatten_inputs, unflatten_output
 from .mlp import activation_class
 from .stacked_linear import StackedLinear
+from .task_rows import task_rows
 
 
 def _maybe_activation(name: str) -> nn.Module:
@@ -111,7 +112,7 @@ class MOORE(nn.Module):
     def forward(self, observation: torch.Tensor, task_id: torch.Tensor) -> torch.Tensor:
         obs, tid, batch_shape = flatten_inputs(observation, task_id, self.obs_dim, "moore")
         h = self.experts(obs[:, : -self.num_tasks])  # [E, B, D]
-        w = self.task_weights()[tid]  # [B, E]
+        w = task_rows(self.task_weights(), tid)  # [B, E]
         if isinstance(self.pre_activation, nn.Identity):
             # sum_e w_e u_e = sum_e (w^T C)_e h_e with u = C h: the orthonormal basis is never materialised
             coef = torch.einsum("be,bej->bj", w.to(torch.float64), gram_schmidt_coefficients(h, self.gs_eps))
