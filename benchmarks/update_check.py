@@ -69,7 +69,7 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     overrides = [
         f"env.name={args.env}", f"env.num_envs={args.num_envs}", "loss=ppo", f"arch={args.arch}", f"grad={grad}",
         f"device={device}", "seed=0", "max_iterations=1", f"matmul_precision={args.matmul_precision}",
-        "cudagraph_update=auto", "logging.logger=none", "logging.progress=none", "checkpoint.every=0",
+        "cudagraph_update=true", "logging.logger=none", "logging.progress=none", "checkpoint.every=0",
         "checkpoint.save_final=false", f"checkpoint.dir={tempfile.mkdtemp(prefix='mtbench-check-')}",
         f"loss.minibatch_size={args.minibatch_size}",
     ]

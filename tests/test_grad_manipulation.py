@@ -813,8 +813,10 @@ def test_graph_update_resolution_for_gradient_methods():
     for name in ("pcgrad", "cagrad", "famo"):
         module = make_gradient_method(name, loss, 3)
         assert module.cuda_graph_safe and graph_safe_update(module, loss)
-        assert resolve_graph_update("auto", cuda, graph_safe_update(module, loss))
-        assert not resolve_graph_update("auto", cpu, graph_safe_update(module, loss))
+        # auto leaves the captured update of a gradient method off until it is verified on a GPU; true turns it on
+        assert not resolve_graph_update("auto", cuda, graph_safe_update(module, loss), plain_loss=False)
+        assert resolve_graph_update(True, cuda, graph_safe_update(module, loss), plain_loss=False)
+        assert not resolve_graph_update("auto", cpu, graph_safe_update(module, loss), plain_loss=False)
         assert not resolve_graph_update(False, cuda, graph_safe_update(module, loss))
         diag = make_gradient_method(name, loss, 3, diagnostics_every=5)
         assert not graph_safe_update(diag, loss)
@@ -825,6 +827,7 @@ def test_graph_update_resolution_for_gradient_methods():
     assert not graph_safe_update(diagnostics, loss)
     plain = make_gradient_method("none", loss, 3)
     assert plain is loss and graph_safe_update(plain, loss)
+    assert resolve_graph_update("auto", cuda, True)
     assert not resolve_graph_update("auto", cuda, True, "pqn")
 
 

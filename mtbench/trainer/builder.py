@@ -122,12 +122,15 @@ def graph_safe_update(update_module: nn.Module, loss: nn.Module) -> bool:
     return update_module is loss or bool(getattr(update_module, "cuda_graph_safe", False))
 
 
-def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool, loss_name: str = "ppo") -> bool:
-    """``cudagraph_update``: ``auto`` = on for CUDA when the update is graph-safe (:func:`graph_safe_update`:
-    ``grad=none``, ``pcgrad``, ``cagrad``, ``famo``; not with gradient diagnostics, not for PQN, whose RAdam update
-    has not been checked under CUDA graphs), ``true`` / ``false``."""
+def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool, loss_name: str = "ppo",
+                         plain_loss: bool = True) -> bool:
+    """``cudagraph_update``: ``auto`` = on for CUDA with the plain loss (``grad=none``; not for PQN, whose RAdam
+    update has not been checked under CUDA graphs); ``true`` = on, also for the graph-safe gradient methods
+    (:func:`graph_safe_update`: ``pcgrad``, ``cagrad``, ``famo`` without gradient diagnostics; their captured update
+    is built and tested to be free of host syncs on the CPU but not yet verified on a GPU, so ``auto`` leaves it off
+    for them: ``benchmarks/update_check.py`` compares it with the eager update); ``false`` = off."""
     if value is None or str(value) == "auto":
-        return device.type == "cuda" and graph_safe and loss_name != "pqn"
+        return device.type == "cuda" and graph_safe and plain_loss and loss_name != "pqn"
     if not isinstance(value, bool):
         raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
     if value and not graph_safe:
@@ -232,7 +235,8 @@ def build_trainer(
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
     update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
     graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
-                                        graph_safe_update(update_module, loss), cfg.loss.name)
+                                        graph_safe_update(update_module, loss), cfg.loss.name,
+                                        plain_loss=update_module is loss)
     optimizer = build_optimizer(loss, cfg.loss, device, capturable=graph_update)
     if cfg.get("compile", False):
         if update_module is not loss:
