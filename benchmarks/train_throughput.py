@@ -2,6 +2,7 @@
 
     python benchmarks/train_throughput.py --env mt10_rand --num-envs 24576 --device cuda --iters 10
     python benchmarks/train_throughput.py --env mt10_rand --num-envs 24576 --device cuda --iters 10 --compile --cudagraphs
+    python benchmarks/train_throughput.py --env mt10_rand --num-envs 24576 --arch moore --matmul-precision high
     python benchmarks/train_throughput.py --env reach --num-envs 64 --device cpu --iters 3 --minibatch-size 1024
 
 The run uses the real training stack (conf/ + ``mtbench.trainer.build_trainer``: the trainer's rollout over the
@@ -47,6 +48,10 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--minibatch-size", type=int, default=None, help="override loss.minibatch_size")
     p.add_argument("--compile", action="store_true", help="torch.compile the actor/critic networks")
     p.add_argument("--cudagraphs", action="store_true", help="CUDA-graph the collection policy")
+    p.add_argument("--matmul-precision", default=None, choices=["highest", "high", "medium"],
+                   help="override matmul_precision (torch.set_float32_matmul_precision; high = TF32 on CUDA)")
+    p.add_argument("--cudagraph-update", default=None, choices=["auto", "true", "false"],
+                   help="override cudagraph_update (the CUDA-graphed minibatch update)")
     p.add_argument("--threads", type=int, default=None, help="torch.set_num_threads")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--override", action="append", default=[], help="extra Hydra override (repeatable)")
@@ -73,6 +78,10 @@ def main(argv: list[str] | None = None) -> None:
         "checkpoint.save_final=false",
         f"checkpoint.dir={tempfile.mkdtemp(prefix='mtbench-bench-')}",
     ]
+    if args.matmul_precision is not None:
+        overrides.append(f"matmul_precision={args.matmul_precision}")
+    if args.cudagraph_update is not None:
+        overrides.append(f"cudagraph_update={args.cudagraph_update}")
     if args.horizon is not None:
         overrides.append(f"loss.horizon={args.horizon}")
     if args.epochs is not None:
@@ -90,7 +99,8 @@ def main(argv: list[str] | None = None) -> None:
         f"setup {time.perf_counter() - t:.1f}s | {args.loss} env={args.env} envs={trainer.num_envs} tasks={trainer.num_tasks} "
         f"horizon={trainer.horizon} batch={trainer.frames_per_batch:,} epochs={trainer.epochs} "
         f"minibatches={trainer.num_minibatches}x{trainer.minibatch_size:,} device={device} "
-        f"compile={args.compile} cudagraphs={args.cudagraphs} torch_threads={torch.get_num_threads()}",
+        f"compile={args.compile} cudagraphs={args.cudagraphs} torch_threads={torch.get_num_threads()} "
+        f"matmul_precision={torch.get_float32_matmul_precision()} graphed_update={trainer.updater.graph}",
         flush=True,
     )
     collect_s, update_s = [], []

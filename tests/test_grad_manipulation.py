@@ -733,3 +733,115 @@ def test_backward_has_no_host_sync(monkeypatch, method):
     monkeypatch.undo()
     assert all(torch.isfinite(p.grad).all() for p in loss.parameters())
     assert torch.isfinite(metrics["grad_cos_critic_mean"])
+
+
+def _mt_ppo_minibatch(k: int = 3, state: int = 5, n: int = 48):
+    from mtbench.objectives import MTPPOLoss
+    from mtbench.trainer.actor_critic import make_actor, make_critic
+
+    arch = {"name": "mlp", "kwargs": {"hidden": [16, 16]}}
+    torch.manual_seed(0)
+    actor = make_actor(arch, obs_dim=state + k, action_dim=2, num_tasks=k)
+    critic = make_critic(arch, obs_dim=state + k, num_tasks=k)
+    loss = MTPPOLoss(actor, critic, num_tasks=k)
+    ids = torch.arange(n) % k
+    ids[ids == 1] = 0  # task 1 absent: the masks, not the shapes, change
+    obs = torch.cat([torch.randn(n, state), torch.nn.functional.one_hot(ids, k).float()], -1)
+    td = TensorDict({"observation": obs, "task_id": ids}, [n])
+    with torch.no_grad():
+        actor(td)
+    td["advantage"] = torch.randn(n, 1)
+    td["value_target"] = torch.randn(n, 1) + 3.0 * (ids[:, None] == 2)
+    td["state_value"] = td["value_target"] + 0.05 * torch.randn(n, 1)
+    return loss, td
+
+
+@pytest.mark.parametrize("method", ["none", "pcgrad", "cagrad", "famo"])
+def test_graphed_minibatch_step_has_no_host_sync(monkeypatch, method):
+    """The whole step the CUDA-graphed update captures -- MTPPOLoss, the method's backward, grad-norm clip, fused
+    Adam with a tensor lr -- converts no tensor to Python and uses no data-dependent shape (nonzero, boolean-mask
+    indexing), on the CPU with the conversions patched to raise. (C++-internal CPU checks are not seen: e.g. the
+    CPU ``lu_solve`` behind CAGrad's ``linalg.solve_ex`` checks its pivots with two ``item()`` -- CPU only;
+    benchmarks/update_check.py captures the step on a GPU.)"""
+    import mtbench.objectives.task_wrapper as tw
+    from mtbench.trainer.builder import graph_safe_update
+    from mtbench.trainer.update import MinibatchUpdate
+
+    loss, td = _mt_ppo_minibatch()
+    module = make_gradient_method(method, loss, 3)
+    assert graph_safe_update(module, loss)
+    params = [p for p in loss.parameters() if p.requires_grad]
+    opt = torch.optim.Adam(params, lr=torch.tensor(1e-3), fused=True, capturable=False)
+    update = MinibatchUpdate(module, opt, max_grad_norm=1.0, call_hooks=lambda *a: None)
+    update.step(td)  # first call: lazy set-up (term discovery, optimizer state) happens before capture
+    monkeypatch.setattr(tw, "check_task_ids", lambda *a, **k: None)  # CPU-only id check (skipped on CUDA)
+
+    def forbidden(name):
+        def fail(*args, **kwargs):
+            raise AssertionError(f"host sync or dynamic shape: {name}")
+
+        return fail
+
+    for name in ("item", "tolist", "__bool__", "__int__", "__float__", "__index__", "nonzero", "cpu", "numpy",
+                 "masked_select", "unique"):
+        monkeypatch.setattr(torch.Tensor, name, forbidden(f"Tensor.{name}"))
+    for name in ("nonzero", "masked_select", "unique", "argwhere"):
+        monkeypatch.setattr(torch, name, forbidden(f"torch.{name}"))
+    getitem = torch.Tensor.__getitem__
+
+    def checked_getitem(self, index):
+        for i in index if isinstance(index, tuple) else (index,):
+            if isinstance(i, torch.Tensor) and i.dtype == torch.bool:
+                raise AssertionError("boolean-mask indexing (data-dependent shape)")
+        return getitem(self, index)
+
+    monkeypatch.setattr(torch.Tensor, "__getitem__", checked_getitem)
+    before = [p.detach().clone() for p in params]
+    for _ in range(2):
+        metrics = update.step(td)
+    monkeypatch.undo()
+    assert all(torch.isfinite(p).all() for p in params)
+    assert any(not torch.equal(a, b) for a, b in zip(before, params, strict=True))
+    assert torch.isfinite(metrics["grad_norm"])
+
+
+def test_graph_update_resolution_for_gradient_methods():
+    from mtbench.trainer.builder import graph_safe_update, resolve_graph_update
+
+    cuda, cpu = torch.device("cuda"), torch.device("cpu")
+    loss, _ = _mt_ppo_minibatch()
+    for name in ("pcgrad", "cagrad", "famo"):
+        module = make_gradient_method(name, loss, 3)
+        assert module.cuda_graph_safe and graph_safe_update(module, loss)
+        # auto leaves the captured update of a gradient method off until it is verified on a GPU; true turns it on
+        assert not resolve_graph_update("auto", cuda, graph_safe_update(module, loss), plain_loss=False)
+        assert resolve_graph_update(True, cuda, graph_safe_update(module, loss), plain_loss=False)
+        assert not resolve_graph_update("auto", cpu, graph_safe_update(module, loss), plain_loss=False)
+        assert not resolve_graph_update(False, cuda, graph_safe_update(module, loss))
+        diag = make_gradient_method(name, loss, 3, diagnostics_every=5)
+        assert not graph_safe_update(diag, loss)
+        assert not resolve_graph_update("auto", cuda, graph_safe_update(diag, loss))
+        with pytest.raises(ValueError, match="diagnostics_every"):
+            resolve_graph_update(True, cuda, graph_safe_update(diag, loss))
+    diagnostics = make_gradient_method("none", loss, 3, diagnostics_every=1)
+    assert not graph_safe_update(diagnostics, loss)
+    plain = make_gradient_method("none", loss, 3)
+    assert plain is loss and graph_safe_update(plain, loss)
+    assert resolve_graph_update("auto", cuda, True)
+    assert not resolve_graph_update("auto", cuda, True, "pqn")
+
+
+def test_pcgrad_generator_for_graph_capture_and_checkpoints():
+    """PCGrad exposes its order generator (registered with a captured graph) once created, and re-creates it when
+    a checkpoint is loaded, so that a re-capture (without eager warm-up) can register it; orders continue exactly."""
+    loss, td = _mt_ppo_minibatch()
+    module = make_gradient_method("pcgrad", loss, 3, seed=3)
+    assert module.cuda_graph_generators() == []
+    module.backward(td)
+    (gen,) = module.cuda_graph_generators()
+    state = {k: v for k, v in module.state_dict().items()}
+    expected = torch.rand(4, generator=gen)
+    other = make_gradient_method("pcgrad", loss, 3, seed=0)
+    other.load_state_dict(state)
+    (gen2,) = other.cuda_graph_generators()
+    assert gen2 is not gen and torch.equal(torch.rand(4, generator=gen2), expected)

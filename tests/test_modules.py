@@ -15,7 +15,7 @@ from torch.func import functional_call, stack_module_state, vmap
 import mtbench.modules as M
 from mtbench.modules import task_embeddings as te
 from mtbench.modules.compositional_linear import CompositionalLinear
-from mtbench.modules.gram_schmidt import gram_schmidt
+from mtbench.modules.gram_schmidt import gram_schmidt, gram_schmidt_coefficients
 from mtbench.modules.registry import arch_kwargs
 
 K = 3  # tasks in the small test problems
@@ -482,6 +482,54 @@ def test_gram_schmidt_orthonormal_and_matches_qr():
     torch.testing.assert_close(gram_schmidt(h_scaled), u_default, atol=1e-12, rtol=0)  # scale invariance kept
 
 
+def _gram_schmidt_loop(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
+    """Reference: the guarded classical Gram-Schmidt on the vectors themselves (the former implementation)."""
+    basis: list[torch.Tensor] = []
+    for i in range(h.shape[0]):
+        hi = h[i]
+        r = hi
+        if basis:
+            u_prev = torch.stack(basis)
+            r = hi - ((u_prev * hi.unsqueeze(0)).sum(-1, keepdim=True) * u_prev).sum(0)
+        sq = (r * r).sum(-1, keepdim=True) + (eps * eps) * (hi * hi).sum(-1, keepdim=True) + eps_abs * eps_abs
+        basis.append(r / torch.sqrt(sq))
+    return torch.stack(basis)
+
+
+@pytest.mark.parametrize("dependence", [None, 1e-2, 1e-3])
+def test_gram_schmidt_from_gram_matrix_matches_the_vector_recursion(dependence):
+    """The Gram-matrix form equals the vector recursion in float32 (outputs and gradients) and is closer to the
+    float64 reference, also for nearly dependent experts."""
+    torch.manual_seed(0)
+    h = torch.randn(4, 256, 400)
+    if dependence is not None:
+        h[2] = h[0] + dependence * torch.randn(256, 400)
+    h.requires_grad_(True)
+    new, old = gram_schmidt(h), _gram_schmidt_loop(h)
+    ref = _gram_schmidt_loop(h.detach().double())
+    tol = 1e-5 if dependence is None else 2e-4
+    torch.testing.assert_close(new, old, atol=tol, rtol=0)
+    assert (new.double() - ref).abs().max() <= (old.double() - ref).abs().max()
+    g = torch.randn_like(new)
+    (g_new,), (g_old,) = torch.autograd.grad(new, h, g), torch.autograd.grad(old, h, g)
+    scale = g_old.abs().max()
+    torch.testing.assert_close(g_new / scale, g_old / scale, atol=tol, rtol=0)
+    coef = gram_schmidt_coefficients(h.detach())
+    assert coef.dtype == torch.float64 and torch.equal(coef.triu(1), torch.zeros_like(coef))  # lower triangular
+
+
+def test_gram_schmidt_gradients_gradcheck_and_batched_backward():
+    """The Gram matrix's own backward is exact (gradcheck, float64) and vmappable: the batched per-task backward of
+    the gradient methods (``is_grads_batched``) equals one backward per output."""
+    h = torch.randn(3, 5, 7, dtype=torch.float64, requires_grad=True)
+    assert torch.autograd.gradcheck(gram_schmidt, (h,))
+    hf = torch.randn(3, 5, 7, requires_grad=True)
+    out = gram_schmidt(hf).sum(dim=(0, 2))
+    (batched,) = torch.autograd.grad(out, hf, torch.eye(5), is_grads_batched=True, retain_graph=True)
+    looped = torch.stack([torch.autograd.grad(out[i], hf, retain_graph=True)[0] for i in range(5)])
+    torch.testing.assert_close(batched, looped)
+
+
 def test_gram_schmidt_dependent_and_zero_experts_are_finite():
     h = torch.randn(3, 5, 16, requires_grad=True)
     dep = torch.stack([h[0], 2.0 * h[0], torch.zeros_like(h[0])])  # dependent and all-zero expert outputs
@@ -516,6 +564,31 @@ def test_moore_orthonormal_outputs_and_identical_experts():
     assert torch.isfinite(net(zero, torch.tensor([0, 1]))).all()
 
 
+@pytest.mark.parametrize("agg", [("linear", "tanh"), ("relu", "linear")])
+@pytest.mark.parametrize("multi_head", [False, True])
+def test_moore_matches_the_reference_forward_and_gradients(agg, multi_head):
+    """MOORE (Gram-matrix Gram-Schmidt; U never built for a linear first aggregation activation) equals the
+    reference forward -- vector Gram-Schmidt, then ``act1(sum_e w_e act0(u_e))`` -- in outputs and gradients."""
+    torch.manual_seed(1)
+    net = make("moore", agg_activation=agg, multi_head=multi_head, hidden_dim=64)
+    tid = torch.arange(96).remainder(K)
+    obs = batch(tid)
+
+    def reference() -> torch.Tensor:
+        u = net.pre_activation(_gram_schmidt_loop(net.experts(obs[:, :S]), net.gs_eps))
+        v = net.post_activation(torch.einsum("be,ebd->bd", net.task_weights()[tid], u))
+        if multi_head:
+            return net.heads.forward_selected(v, tid)
+        return net.heads(torch.cat([v, obs[:, S:]], -1))
+
+    params = [p for p in net.parameters() if p.requires_grad]
+    out, ref = net(obs, tid), reference()
+    torch.testing.assert_close(out, ref, atol=1e-5, rtol=0)
+    g = torch.randn_like(out)
+    for a, b in zip(torch.autograd.grad(out, params, g), torch.autograd.grad(ref, params, g), strict=True):
+        torch.testing.assert_close(a, b, atol=1e-5, rtol=1e-4)
+
+
 def test_moore_single_head_uses_one_hot_and_tanh_bound():
     net = make("moore")
     assert net.heads.in_features == 16 + K
@@ -529,6 +602,34 @@ def test_moore_single_head_uses_one_hot_and_tanh_bound():
     torch.testing.assert_close(net(obs, tid), expected)
     with pytest.raises(ValueError, match="valid choices"):
         make("moore", agg_activation=("linear", "softsign"))
+
+
+# ------------------------------------------------------------------------------------------ task rows
+@pytest.mark.parametrize("arch", ["moore", "moore_mh", "paco", "soft_modularization", "care", "care_mh", "multihead"])
+def test_task_rows_equal_plain_indexing_in_every_architecture(monkeypatch, arch):
+    """``task_rows`` (matmul backward) gives the same outputs and gradients as ``table[task_id]`` (indexed scatter
+    backward) in every architecture that gathers per-task rows."""
+    from mtbench.modules import care, moore, paco, soft_modularization, stacked_linear
+    from mtbench.modules.task_rows import task_rows
+
+    torch.manual_seed(0)
+    net = make(arch)
+    tid = torch.arange(40).remainder(K)
+    obs = batch(tid)
+    params = [p for p in net.parameters() if p.requires_grad]
+    out = net(obs, tid)
+    g = torch.randn_like(out)
+    grads = torch.autograd.grad(out, params, g, allow_unused=True)
+    for mod in (care, moore, paco, soft_modularization, stacked_linear):
+        monkeypatch.setattr(mod, "task_rows", lambda table, index: table[index])
+    ref = net(obs, tid)
+    torch.testing.assert_close(out, ref, atol=0, rtol=0)
+    for a, b in zip(grads, torch.autograd.grad(ref, params, g, allow_unused=True), strict=True):
+        assert (a is None) == (b is None)
+        if a is not None:
+            torch.testing.assert_close(a, b, atol=1e-6, rtol=1e-5)
+    table = torch.randn(K, 3, 2, dtype=torch.float64, requires_grad=True)
+    assert torch.autograd.gradcheck(lambda t: task_rows(t, tid), (table,))
 
 
 # ------------------------------------------------------------------------------------------ Hydra presets

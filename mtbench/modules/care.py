@@ -14,6 +14,7 @@ from .inputs import check_sizes, flatten_inputs, unflatten_output
 from .mlp import mlp_layers
 from .stacked_linear import StackedLinear
 from .task_embeddings import pretrained_task_embeddings
+from .task_rows import task_rows
 
 _ATTENTIONS = ("dot", "task")
 _CONTEXTS = ("pretrained", "learned")
@@ -151,12 +152,12 @@ class CARE(nn.Module):
 
     def _attend(self, state: torch.Tensor, tid: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         contexts = self.task_contexts()
-        z_ctx = contexts[tid]
+        z_ctx = task_rows(contexts, tid)
         reprs = self.experts(state)  # [E, B, D]
         if self.attention == "dot":
             scores = torch.einsum("bd,ebd->be", z_ctx.detach(), reprs)
         else:
-            scores = self.attention_logits(contexts.detach())[tid]
+            scores = task_rows(self.attention_logits(contexts.detach()), tid)
         alpha = torch.softmax(scores / self.temperature, dim=-1)  # [B, E]
         return alpha, reprs, z_ctx
 

@@ -1,8 +1,57 @@
-"""Per-sample Gram-Schmidt orthonormalisation across experts (MOORE's ``OrthogonalLayer1D``), NaN-safe."""
+"""Per-sample Gram-Schmidt orthonormalisation across experts (MOORE's ``OrthogonalLayer1D``), NaN-safe, computed
+through the per-sample ``E x E`` Gram matrix."""
 
 from __future__ import annotations
 
 import torch
+
+
+class _Gram(torch.autograd.Function):
+    """``A[n, i, j] = h_i . h_j`` for ``h [E, N, D]``; the backward is the one matmul ``(dA + dA^T) H`` (autograd
+    of the einsum would run two, one per operand, and add them)."""
+
+    generate_vmap_rule = True
+
+    @staticmethod
+    def forward(h: torch.Tensor) -> torch.Tensor:
+        return torch.einsum("ind,jnd->nij", h, h)
+
+    @staticmethod
+    def setup_context(ctx, inputs, output) -> None:
+        ctx.save_for_backward(inputs[0])
+
+    @staticmethod
+    def backward(ctx, grad: torch.Tensor) -> torch.Tensor:
+        (h,) = ctx.saved_tensors
+        # matmul, not einsum: the batched per-task backward (is_grads_batched) vmaps this, einsum has no rule there
+        return torch.matmul(grad + grad.transpose(-1, -2), h.transpose(0, 1)).transpose(0, 1)
+
+
+def gram_schmidt_coefficients(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
+    """Lower-triangular ``C [N, E, E]`` (float64) with ``u_i = sum_j C[n, i, j] h_j`` for ``h [E, N, D]``.
+
+    The Gram-Schmidt recursion of :func:`gram_schmidt` written on the per-sample Gram matrix ``A = H H^T``
+    (``A[n, i, j] = h_i . h_j``, one batched float64 matmul): with ``u_j = C_j H``, the projections are
+    ``h_i . u_j = (C A)[j, i]``, the residual ``r_i = R_i H`` with ``R_i = e_i - sum_{j<i} (h_i . u_j) C_j`` and
+    ``|r_i|^2 = R_i A R_i^T``. Only ``[N, E, E]`` tensors enter the recursion, so the ``[E, N, D]`` expert
+    outputs are read twice (Gram matrix, combination) instead of once per projection; float64 keeps
+    ``|r_i|^2`` accurate where it is small against ``|h_i|^2`` (nearly dependent experts).
+    """
+    e = h.shape[0]
+    a = _Gram.apply(h.to(torch.float64))  # [N, E, E]
+    diag = torch.diagonal(a, dim1=-2, dim2=-1)  # |h_i|^2, [N, E]
+    eye = torch.eye(e, dtype=torch.float64, device=h.device)
+    rows: list[torch.Tensor] = []
+    for i in range(e):
+        r = eye[i].expand(a.shape[0], e)
+        if rows:
+            prev = torch.stack(rows, dim=1)  # [N, i, E]: u_j = prev[:, j] @ H
+            proj = torch.einsum("njk,nk->nj", prev, a[:, i])  # h_i . u_j
+            r = r - torch.einsum("nj,njk->nk", proj, prev)
+        sq = torch.einsum("nk,nkl,nl->n", r, a, r).clamp_min(0.0)
+        sq = sq + (eps * eps) * diag[:, i] + eps_abs * eps_abs
+        rows.append(r / sq.sqrt().unsqueeze(-1))
+    return torch.stack(rows, dim=1)
 
 
 def gram_schmidt(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
@@ -10,7 +59,7 @@ def gram_schmidt(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> t
 
     ``u_1 = h_1 / |h_1|``, ``u_i = r_i / |r_i|`` with ``r_i = h_i - sum_{j<i} (h_i . u_j) u_j`` (classical
     Gram-Schmidt, as in MOORE/MTBench), so for each sample the ``E`` output vectors satisfy ``U U^T = I_E``
-    (requires ``E <= D``).
+    (requires ``E <= D``). Computed as ``U = C H`` with the coefficients of :func:`gram_schmidt_coefficients`.
 
     NaN guard: the norm is replaced by ``sqrt(|r_i|^2 + eps^2 |h_i|^2 + eps_abs^2)``. The originals divide by
     ``|r_i|``, which gives NaN (forward and backward) as soon as an expert output is zero or linearly dependent on the
@@ -21,14 +70,7 @@ def gram_schmidt(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> t
     The price: unit norms shrink by a relative ``~eps^2 |h_i|^2 / (2 |r_i|^2)``, i.e. ~5e-9 for independent outputs
     (``|r_i| ~ |h_i|``) with the default ``eps = 1e-4``.
     """
-    basis: list[torch.Tensor] = []
-    for i in range(h.shape[0]):
-        hi = h[i]
-        r = hi
-        if basis:
-            u_prev = torch.stack(basis)  # [i, ..., D]
-            coeff = (u_prev * hi.unsqueeze(0)).sum(-1, keepdim=True)  # [i, ..., 1]
-            r = hi - (coeff * u_prev).sum(0)
-        sq = (r * r).sum(-1, keepdim=True) + (eps * eps) * (hi * hi).sum(-1, keepdim=True) + eps_abs * eps_abs
-        basis.append(r / torch.sqrt(sq))
-    return torch.stack(basis)
+    e, d = h.shape[0], h.shape[-1]
+    flat = h.reshape(e, -1, d)
+    coef = gram_schmidt_coefficients(flat, eps, eps_abs).to(h.dtype)  # [N, E, E]
+    return torch.einsum("nij,jnd->ind", coef, flat).reshape(h.shape)

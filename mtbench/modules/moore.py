@@ -8,10 +8,11 @@ import torch
 from torch import nn
 
 from .experts import ParallelExperts
-from .gram_schmidt import gram_schmidt
+from .gram_schmidt import gram_schmidt, gram_schmidt_coefficients
 from .inputs import check_sizes, flatten_inputs, unflatten_output
 from .mlp import activation_class
 from .stacked_linear import StackedLinear
+from .task_rows import task_rows
 
 
 def _maybe_activation(name: str) -> nn.Module:
@@ -29,7 +30,9 @@ class MOORE(nn.Module):
     * ``num_experts`` experts (default 4 = MT10; the paper uses 6 for MT50), each an MLP of ``num_layers`` linear
       layers of width ``hidden_dim`` (400) with ReLU between and a linear last layer, on the state (one-hot removed).
     * Per-sample Gram-Schmidt across the experts (:func:`gram_schmidt`), giving orthonormal ``U [E, D]`` for each
-      sample. Unlike the originals, the norm carries an ``eps`` (``gs_eps``, relative to the expert output's norm,
+      sample, computed as ``U = C H`` from the ``E x E`` Gram matrix of the expert outputs
+      (:func:`gram_schmidt_coefficients`); with a linear ``agg_activation[0]`` (the default) ``U`` is never built:
+      ``sum_e w_e u_e = sum_e (w^T C)_e h_e``. Unlike the originals, the norm carries an ``eps`` (``gs_eps``, relative to the expert output's norm,
       default 1e-4) so zero or (numerically) dependent expert outputs give finite, damped vectors instead of NaN.
     * Task weights ``w = MLP(one-hot)``: hidden ``task_encoder`` ([256]) ReLU, then ``Linear(., E)``; no biases
       (``task_encoder_bias=False``), no normalisation of ``w`` (as in MOORE/MTBench).
@@ -108,9 +111,18 @@ class MOORE(nn.Module):
 
     def forward(self, observation: torch.Tensor, task_id: torch.Tensor) -> torch.Tensor:
         obs, tid, batch_shape = flatten_inputs(observation, task_id, self.obs_dim, "moore")
-        u = self.pre_activation(gram_schmidt(self.experts(obs[:, : -self.num_tasks]), self.gs_eps))  # [E, B, D]
-        w = self.task_weights()[tid]  # [B, E]
-        v = self.post_activation(torch.einsum("be,ebd->bd", w, u))
+        h = self.experts(obs[:, : -self.num_tasks])  # [E, B, D]
+        w = task_rows(self.task_weights(), tid)  # [B, E]
+        if isinstance(self.pre_activation, nn.Identity):
+            # sum_e w_e u_e = sum_e (w^T C)_e h_e with u = C h: the orthonormal basis is never materialised
+            coef = torch.einsum("be,bej->bj", w.to(torch.float64), gram_schmidt_coefficients(h, self.gs_eps))
+            # a batched matmul, TF32 under matmul_precision=high: its rounding, amplified by the conditioning of the
+            # expert outputs (|C| |h| ~ |h_i| / |r_i|), is of the order of the TF32 error of the experts' own layers
+            # propagated through Gram-Schmidt (an elementwise sum would read [E, B, D] ~3x more often)
+            mixed = torch.einsum("be,ebd->bd", coef.to(h.dtype), h)
+        else:
+            mixed = torch.einsum("be,ebd->bd", w, self.pre_activation(gram_schmidt(h, self.gs_eps)))
+        v = self.post_activation(mixed)
         if self.multi_head:
             out = self.heads.forward_selected(v, tid)
         else:

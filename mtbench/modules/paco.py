@@ -10,6 +10,7 @@ from torch import nn
 from .compositional_linear import CompositionalLinear
 from .inputs import check_sizes, flatten_inputs, unflatten_output
 from .mlp import activation_class
+from .task_rows import task_rows
 
 
 class PaCo(nn.Module):
@@ -64,7 +65,7 @@ class PaCo(nn.Module):
 
     def forward(self, observation: torch.Tensor, task_id: torch.Tensor) -> torch.Tensor:
         obs, tid, batch_shape = flatten_inputs(observation, task_id, self.obs_dim, "paco")
-        w = torch.softmax(self.task_encoder.weight, dim=-1)[tid]  # [B, K]
+        w = task_rows(torch.softmax(self.task_encoder.weight, dim=-1), tid)  # [B, K]
         x = obs[:, : -self.num_tasks]
         for layer in self.layers:
             x = self.act(layer(x, w))

@@ -10,6 +10,7 @@ from torch import nn
 from .inputs import check_sizes, flatten_inputs, unflatten_output
 from .mlp import activation_class, mlp_layers
 from .stacked_linear import StackedLinear
+from .task_rows import task_rows
 
 _FIRST_INPUTS = ("product", "state")
 _REDUCTIONS = ("sum", "mean")
@@ -88,7 +89,7 @@ class SoftModularization(nn.Module):
 
     def _encode(self, obs: torch.Tensor, tid: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         f = self.state_encoder(obs[:, : -self.num_tasks])
-        h = self.task_encoder(self.task_onehots)[tid]  # task encoder evaluated on the K one-hots, then gathered
+        h = task_rows(self.task_encoder(self.task_onehots), tid)  # task encoder on the K one-hots, then gathered
         return f, f * h
 
     def _routing(self, u: torch.Tensor) -> list[torch.Tensor]:

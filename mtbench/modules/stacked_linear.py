@@ -12,6 +12,8 @@ import math
 import torch
 from torch import nn
 
+from .task_rows import task_rows
+
 
 class StackedLinear(nn.Module):
     """``n`` independent ``Linear(in_features, out_features)`` layers: ``weight [n, in, out]``, ``bias [n, out]``.
@@ -79,7 +81,7 @@ class StackedLinear(nn.Module):
         gather_idx = index.view(-1, 1, 1).expand(-1, 1, self.out_features)
         y = torch.gather(y, 1, gather_idx).squeeze(1)
         if self.bias is not None:
-            y = y + self.bias[index]
+            y = y + task_rows(self.bias, index)
         return y
 
     def extra_repr(self) -> str:

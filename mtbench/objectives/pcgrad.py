@@ -111,6 +111,11 @@ class PCGrad(TaskGradientWrapper):
 
     def _get_generator(self, device: torch.device) -> torch.Generator:
         if self._generator is None or self._generator.device != device:
+            if device.type == "cuda" and torch.cuda.is_current_stream_capturing():
+                raise RuntimeError(
+                    "PCGrad: the task-order generator must exist before CUDA-graph capture (run one eager update "
+                    "first, or load the checkpoint before capturing) so that it can be registered with the graph"
+                )
             gen = torch.Generator(device=device)
             gen.manual_seed(self.seed)
             if self._pending_state is not None:
@@ -127,6 +132,11 @@ class PCGrad(TaskGradientWrapper):
         lam = pcgrad_weights(gram_matrix, present, orders, self.pcgrad_reduction)
         return lam @ grads
 
+    def cuda_graph_generators(self) -> list[torch.Generator]:
+        """The task-order generator (once created by an update), registered with a captured graph so that every
+        replay draws new orders."""
+        return [] if self._generator is None else [self._generator]
+
     def get_extra_state(self) -> dict[str, Any]:
         state = self._generator.get_state() if self._generator is not None else self._pending_state
         return {**super().get_extra_state(), "seed": self.seed, "generator_state": state}
@@ -136,3 +146,7 @@ class PCGrad(TaskGradientWrapper):
         self.seed = int(state.get("seed", self.seed))
         self._generator = None
         self._pending_state = state.get("generator_state")
+        if self._pending_state is not None:
+            # create the generator now, on the parameters' device, so that a CUDA graph captured after loading
+            # (the trainer re-captures without eager warm-up) can register it
+            self._get_generator(next(iter(self.loss_module.parameters())).device)

@@ -301,6 +301,19 @@ class TaskGradientWrapper(LossModule):
             out.set(key, value)
         return out
 
+    # ------------------------------------------------------------------ CUDA-graph capture
+    @property
+    def cuda_graph_safe(self) -> bool:
+        """Whether one :meth:`backward` may be captured in a CUDA graph and replayed (the trainer's graphed
+        minibatch update): it is sync-free with fixed shapes, and its state lives in device tensors -- except the
+        Python update counter that schedules the diagnostics, so only without diagnostics
+        (``diagnostics_every == 0``)."""
+        return self.diagnostics_every == 0
+
+    def cuda_graph_generators(self) -> list[torch.Generator]:
+        """Non-default random generators :meth:`backward` draws from (registered with a captured graph)."""
+        return []
+
     # ------------------------------------------------------------------ checkpoint state
     def get_extra_state(self) -> dict[str, Any]:
         """The update counter (it schedules the diagnostics) and the latest diagnostics (reported at every

@@ -116,13 +116,26 @@ def build_gradient_method(grad_cfg: Mapping[str, Any] | None, loss: nn.Module, n
     return make_gradient_method(name, loss, num_tasks, **kwargs)
 
 
-def resolve_graph_update(value: Any, device: torch.device, plain_loss: bool, loss_name: str = "ppo") -> bool:
+def graph_safe_update(update_module: nn.Module, loss: nn.Module) -> bool:
+    """Whether the minibatch update of ``update_module`` may be replayed from a CUDA graph: the plain loss, or a
+    gradient method whose ``cuda_graph_safe`` says so (PCGrad, CAGrad, FAMO without ``diagnostics_every``)."""
+    return update_module is loss or bool(getattr(update_module, "cuda_graph_safe", False))
+
+
+def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool, loss_name: str = "ppo",
+                         plain_loss: bool = True) -> bool:
     """``cudagraph_update``: ``auto`` = on for CUDA with the plain loss (``grad=none``; not for PQN, whose RAdam
-    update has not been checked under CUDA graphs), ``true`` / ``false``."""
+    update has not been checked under CUDA graphs); ``true`` = on, also for the graph-safe gradient methods
+    (:func:`graph_safe_update`: ``pcgrad``, ``cagrad``, ``famo`` without gradient diagnostics; their captured update
+    is built and tested to be free of host syncs on the CPU but not yet verified on a GPU, so ``auto`` leaves it off
+    for them: ``benchmarks/update_check.py`` compares it with the eager update); ``false`` = off."""
     if value is None or str(value) == "auto":
-        return device.type == "cuda" and plain_loss and loss_name != "pqn"
+        return device.type == "cuda" and graph_safe and plain_loss and loss_name != "pqn"
     if not isinstance(value, bool):
         raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
+    if value and not graph_safe:
+        raise ValueError("cudagraph_update=true is not available with gradient diagnostics (grad.diagnostics_every > "
+                         "0: a Python counter schedules them, which graph replays do not advance); use auto or false")
     if value and loss_name == "pqn":
         raise ValueError("cudagraph_update=true is not available with loss=pqn (its RAdam update is not verified "
                          "under CUDA graphs); use auto or false")
@@ -221,8 +234,9 @@ def build_trainer(
     num_tasks = int(base_env(env).num_tasks)
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
     update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
-    graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device, update_module is loss,
-                                        cfg.loss.name)
+    graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
+                                        graph_safe_update(update_module, loss), cfg.loss.name,
+                                        plain_loss=update_module is loss)
     optimizer = build_optimizer(loss, cfg.loss, device, capturable=graph_update)
     if cfg.get("compile", False):
         if update_module is not loss:
@@ -266,6 +280,7 @@ __all__ = [
     "build_optimizer",
     "build_trainer",
     "compile_networks",
+    "graph_safe_update",
     "load_resume_checkpoint",
     "resolve_graph_update",
 ]

@@ -25,7 +25,10 @@ class MinibatchUpdate:
     and summed over :meth:`epochs` (minibatches of a rollout) or :meth:`run` (any sequence of batches, e.g. replay
     samples); nothing is read back to the host. With ``graph=True`` (CUDA) the whole step of :meth:`epochs` is
     captured once, after 3 eager warm-up updates on a side stream, and replayed; every minibatch is gathered
-    into static buffers with ``index_select``.
+    into static buffers with ``index_select``. This works for the plain loss and for the gradient methods
+    (PCGrad, CAGrad, FAMO: their step is sync-free, PCGrad's order generator is registered with the graph through
+    ``update_module.cuda_graph_generators()``); Python-side state of the update module (e.g. an update counter)
+    does not advance during replays.
 
     Args:
         update_module: the loss, or the gradient-method wrapper around it.
@@ -70,9 +73,15 @@ class MinibatchUpdate:
             self.device,
             warmup=3,
             stream=torch.cuda.Stream(self.device) if self.graph else None,
+            generators=self._graph_generators,
             enabled=self.graph,
             name="minibatch update",
         )
+
+    def _graph_generators(self) -> list[torch.Generator]:
+        """Non-default generators the update draws from (PCGrad's task orders), registered with the graph."""
+        gens = getattr(self.update_module, "cuda_graph_generators", None)
+        return list(gens()) if callable(gens) else []
 
     def reset_graph(self) -> None:
         """Capture again at the next update (e.g. the optimizer state was loaded into new tensors)."""

@@ -27,7 +27,8 @@ class GraphedStage:
         stream: side stream used for the warm-up calls and the capture (stages sharing a pool should share it);
             ``None``: warm up on the current stream, capture on a stream of torch's choosing.
         generators: non-default ``torch.Generator`` objects ``fn`` draws from (registered with the graph so that
-            every replay advances them as an eager call would).
+            every replay advances them as an eager call would), or a zero-argument callable returning them, called
+            at capture time (for generators created lazily by the warm-up calls).
         enabled: False: always eager.
         name: shown in error messages.
     """
@@ -40,7 +41,7 @@ class GraphedStage:
         warmup: int = 1,
         pool: object | None = None,
         stream: torch.cuda.Stream | None = None,
-        generators: Sequence[torch.Generator] = (),
+        generators: Sequence[torch.Generator] | Callable[[], Sequence[torch.Generator]] = (),
         enabled: bool = True,
         name: str = "",
     ) -> None:
@@ -50,7 +51,7 @@ class GraphedStage:
         self.warmup = int(warmup)
         self.pool = pool
         self.stream = stream
-        self.generators = tuple(generators)
+        self.generators = generators if callable(generators) else tuple(generators)
         self.name = name or getattr(fn, "__name__", "stage")
         self.graph: torch.cuda.CUDAGraph | None = None
         self._calls = 0
@@ -84,7 +85,7 @@ class GraphedStage:
 
     def _capture(self) -> None:
         graph = torch.cuda.CUDAGraph()
-        for gen in self.generators:
+        for gen in self.generators() if callable(self.generators) else self.generators:
             graph.register_generator_state(gen)
         try:
             with torch.cuda.graph(graph, pool=self.pool, stream=self.stream):
@@ -93,7 +94,7 @@ class GraphedStage:
             raise RuntimeError(
                 f"capturing '{self.name}' in a CUDA graph failed ({type(err).__name__}: {err}); the captured code "
                 "must not synchronise with the host or create tensors from Python data. Disable the capture "
-                "(torch_graphs=False for the env) to run it eagerly."
+                "(cudagraph_update=false for the minibatch update, torch_graphs=False for the env) to run it eagerly."
             ) from err
         self.graph = graph
 
