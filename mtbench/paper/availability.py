@@ -87,9 +87,17 @@ def _metaworld_env_problem(name: str, overrides: Mapping[str, Any]) -> str | Non
     return None
 
 
+FREE_FORM_KEYS = ("env.overrides",)
+"""Config nodes whose keys are keyword arguments checked elsewhere (``env.overrides``: the env constructor's, by
+``env_problem``), so a row may set keys there that the library's yaml does not list."""
+
+
 def _unknown_keys(row_values: Any, lib_values: Any, prefix: str) -> list[str]:
-    """Dotted keys that ``row_values`` sets but ``lib_values`` does not have (free-form empty dicts accept all)."""
+    """Dotted keys that ``row_values`` sets but ``lib_values`` does not have (free-form empty dicts and
+    :data:`FREE_FORM_KEYS` accept all)."""
     if not isinstance(row_values, Mapping) or not isinstance(lib_values, Mapping) or not lib_values:
+        return []
+    if prefix.rstrip(".") in FREE_FORM_KEYS:
         return []
     out = []
     for key, value in row_values.items():
