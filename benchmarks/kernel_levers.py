@@ -24,7 +24,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from mtbench.modules.gram_schmidt import gram_schmidt_coefficients  # noqa: E402
+from mtbench.modules.gram_schmidt import gram_schmidt_coefficients, gram_schmidt_vectors  # noqa: E402
 from mtbench.modules.task_rows import task_rows  # noqa: E402
 
 
@@ -41,20 +41,6 @@ def _median_ms(fn: Callable[[], object], device: torch.device, repeats: int) -> 
             torch.cuda.synchronize(device)
         times.append((time.perf_counter() - t0) * 1e3)
     return statistics.median(times)
-
-
-def _vector_gram_schmidt(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
-    """The former implementation: guarded classical Gram-Schmidt on the vectors."""
-    basis: list[torch.Tensor] = []
-    for i in range(h.shape[0]):
-        hi = h[i]
-        r = hi
-        if basis:
-            u_prev = torch.stack(basis)
-            r = hi - ((u_prev * hi.unsqueeze(0)).sum(-1, keepdim=True) * u_prev).sum(0)
-        sq = (r * r).sum(-1, keepdim=True) + (eps * eps) * (hi * hi).sum(-1, keepdim=True) + eps_abs * eps_abs
-        basis.append(r / torch.sqrt(sq))
-    return torch.stack(basis)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -88,7 +74,7 @@ def main(argv: list[str] | None = None) -> None:
     gv = torch.randn(args.batch, args.dim, device=dev)
 
     def former() -> object:
-        return torch.autograd.grad(torch.einsum("be,ebd->bd", w, _vector_gram_schmidt(h)), (h, w), gv)
+        return torch.autograd.grad(torch.einsum("be,ebd->bd", w, gram_schmidt_vectors(h)), (h, w), gv)
 
     def current() -> object:
         coef = torch.einsum("be,bej->bj", w.to(torch.float64), gram_schmidt_coefficients(h))

@@ -15,7 +15,7 @@ from torch.func import functional_call, stack_module_state, vmap
 import mtbench.modules as M
 from mtbench.modules import task_embeddings as te
 from mtbench.modules.compositional_linear import CompositionalLinear
-from mtbench.modules.gram_schmidt import gram_schmidt, gram_schmidt_coefficients
+from mtbench.modules.gram_schmidt import gram_schmidt, gram_schmidt_coefficients, gram_schmidt_vectors
 from mtbench.modules.registry import arch_kwargs
 
 K = 3  # tasks in the small test problems
@@ -482,20 +482,6 @@ def test_gram_schmidt_orthonormal_and_matches_qr():
     torch.testing.assert_close(gram_schmidt(h_scaled), u_default, atol=1e-12, rtol=0)  # scale invariance kept
 
 
-def _gram_schmidt_loop(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
-    """Reference: the guarded classical Gram-Schmidt on the vectors themselves (the former implementation)."""
-    basis: list[torch.Tensor] = []
-    for i in range(h.shape[0]):
-        hi = h[i]
-        r = hi
-        if basis:
-            u_prev = torch.stack(basis)
-            r = hi - ((u_prev * hi.unsqueeze(0)).sum(-1, keepdim=True) * u_prev).sum(0)
-        sq = (r * r).sum(-1, keepdim=True) + (eps * eps) * (hi * hi).sum(-1, keepdim=True) + eps_abs * eps_abs
-        basis.append(r / torch.sqrt(sq))
-    return torch.stack(basis)
-
-
 @pytest.mark.parametrize("dependence", [None, 1e-2, 1e-3])
 def test_gram_schmidt_from_gram_matrix_matches_the_vector_recursion(dependence):
     """The Gram-matrix form equals the vector recursion in float32 (outputs and gradients) and is closer to the
@@ -505,8 +491,8 @@ def test_gram_schmidt_from_gram_matrix_matches_the_vector_recursion(dependence):
     if dependence is not None:
         h[2] = h[0] + dependence * torch.randn(256, 400)
     h.requires_grad_(True)
-    new, old = gram_schmidt(h), _gram_schmidt_loop(h)
-    ref = _gram_schmidt_loop(h.detach().double())
+    new, old = gram_schmidt(h), gram_schmidt_vectors(h)
+    ref = gram_schmidt_vectors(h.detach().double())
     tol = 1e-5 if dependence is None else 2e-4
     torch.testing.assert_close(new, old, atol=tol, rtol=0)
     assert (new.double() - ref).abs().max() <= (old.double() - ref).abs().max()
@@ -575,7 +561,7 @@ def test_moore_matches_the_reference_forward_and_gradients(agg, multi_head):
     obs = batch(tid)
 
     def reference() -> torch.Tensor:
-        u = net.pre_activation(_gram_schmidt_loop(net.experts(obs[:, :S]), net.gs_eps))
+        u = net.pre_activation(gram_schmidt_vectors(net.experts(obs[:, :S]), net.gs_eps))
         v = net.post_activation(torch.einsum("be,ebd->bd", net.task_weights()[tid], u))
         if multi_head:
             return net.heads.forward_selected(v, tid)

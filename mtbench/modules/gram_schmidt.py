@@ -74,3 +74,19 @@ def gram_schmidt(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> t
     flat = h.reshape(e, -1, d)
     coef = gram_schmidt_coefficients(flat, eps, eps_abs).to(h.dtype)  # [N, E, E]
     return torch.einsum("nij,jnd->ind", coef, flat).reshape(h.shape)
+
+
+def gram_schmidt_vectors(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
+    """The same guarded classical Gram-Schmidt as :func:`gram_schmidt`, computed on the vectors themselves (one
+    projection per expert, the former implementation): the reference that tests and ``benchmarks/kernel_levers.py``
+    compare the Gram-matrix form with. ``h [E, ..., D]``."""
+    basis: list[torch.Tensor] = []
+    for i in range(h.shape[0]):
+        hi = h[i]
+        r = hi
+        if basis:
+            u_prev = torch.stack(basis)
+            r = hi - ((u_prev * hi.unsqueeze(0)).sum(-1, keepdim=True) * u_prev).sum(0)
+        sq = (r * r).sum(-1, keepdim=True) + (eps * eps) * (hi * hi).sum(-1, keepdim=True) + eps_abs * eps_abs
+        basis.append(r / torch.sqrt(sq))
+    return torch.stack(basis)
