@@ -16,7 +16,7 @@ from . import observation as layout
 from . import robot
 from .models import compiled_task
 from .reward_utils import mtbench_tolerance
-from .task import HAND_HIGH, HAND_LOW, REWARD_VERSIONS, MetaWorldTask, Reward, TaskState
+from .task import HAND_HIGH, HAND_LOW, MetaWorldTask, Reward, TaskState, check_reward_version
 
 STATE_DIM = layout.STATE_DIM
 ACTION_DIM = 4
@@ -102,8 +102,7 @@ class MetaWorldEnv(EnvBase):
             raise ValueError(f"task_counts must all be positive, got {counts}")
         if len(set(tasks)) != len(tasks):
             raise ValueError(f"task names must be unique, got {tasks}")
-        if reward_version not in REWARD_VERSIONS:
-            raise ValueError(f"unknown reward_version {reward_version!r}; valid choices: {list(REWARD_VERSIONS)}")
+        check_reward_version(reward_version)
         if episode_length < 1:
             raise ValueError(f"episode_length must be positive, got {episode_length}")
         if not (isinstance(action_scale, (int, float)) and not isinstance(action_scale, bool) and action_scale > 0):

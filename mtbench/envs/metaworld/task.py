@@ -225,12 +225,12 @@ class MetaWorldTask:
 
     def dense_reward(self, version: str) -> Reward:
         """The dense-reward function of a reward version (``REWARD_VERSIONS``)."""
-        _check_version(version)
+        check_reward_version(version)
         return self.reward if version == "paper" else self.reward_v2
 
     def success_reward_fn(self, version: str) -> Reward:
         """The success-step reward function of a reward version (``REWARD_VERSIONS``)."""
-        _check_version(version)
+        check_reward_version(version)
         return self.success_reward if version == "paper" else self.success_reward_v2
 
     @classmethod
@@ -281,7 +281,7 @@ class FreeObjectTask(MetaWorldTask):
         return Objects(*self.body_pose(s, self.obj_body))
 
 
-def _check_version(version: str) -> None:
+def check_reward_version(version: str) -> None:
     """Raise ``ValueError`` naming ``reward_version`` and its valid choices unless ``version`` is one of them."""
     if version not in REWARD_VERSIONS:
         raise ValueError(f"unknown reward_version {version!r}; valid choices: {list(REWARD_VERSIONS)}")
@@ -298,5 +298,5 @@ def offset(x: torch.Tensor, dx: float, dy: float, dz: float) -> torch.Tensor:
     return torch.stack([x[..., 0] + dx, x[..., 1] + dy, x[..., 2] + dz], dim=-1)
 
 
-__all__ = ["HAND_HIGH", "HAND_LOW", "REWARD_VERSIONS", "FreeObjectTask", "MetaWorldTask", "Objects", "TaskState",
+__all__ = ["HAND_HIGH", "HAND_LOW", "REWARD_VERSIONS", "check_reward_version", "FreeObjectTask", "MetaWorldTask", "Objects", "TaskState",
            "offset", "unit_quat"]
