@@ -69,10 +69,12 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     overrides = [
         f"env.name={args.env}", f"env.num_envs={args.num_envs}", "loss=ppo", f"arch={args.arch}", f"grad={grad}",
         f"device={device}", "seed=0", "max_iterations=1", f"matmul_precision={args.matmul_precision}",
-        "cudagraph_update=true", "logging.logger=none", "logging.progress=none", "checkpoint.every=0",
+        f"cudagraph_update={str(device.type == 'cuda').lower()}", "logging.logger=none", "logging.progress=none", "checkpoint.every=0",
         "checkpoint.save_final=false", f"checkpoint.dir={tempfile.mkdtemp(prefix='mtbench-check-')}",
         f"loss.minibatch_size={args.minibatch_size}",
     ]
+    if args.diagnostics_every is not None:  # else the grad preset's (measured between graph replays)
+        overrides.append(f"grad.diagnostics_every={args.diagnostics_every}")
     with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
         cfg = compose("config", overrides=overrides)
     trainer = build_trainer(cfg)
@@ -97,15 +99,19 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     d_graph = _max_diff(after_graph, eager_runs[0])
     d_eager = _max_diff(eager_runs[1], eager_runs[0])
     loss_key = "loss_critic" if "loss_critic" in means_g else next(iter(means_g))
+    # the gradient diagnostics (measured between replays when graphed, inside backward when eager) must agree too
+    cos_keys = [k for k in means_g if k.startswith("grad_cos_")]
+    d_cos = max((abs(float(means_g[k]) - float(means_e[k])) for k in cos_keys), default=0.0)
     ok = torch.isfinite(torch.stack([p.float().abs().max() for p in after_graph])).all().item() and (
         d_graph <= max(4.0 * d_eager, args.atol)
-    )
+    ) and d_cos <= 1e-3
     print(
         f"{'PASS' if ok else 'FAIL'} grad={grad} arch={args.arch} matmul_precision={args.matmul_precision} "
         f"linalg={args.linalg or 'default'} "
         f"graphed={graphed.graph and graphed._stage.captured} minibatches={count}: max |param graphed - eager| "
         f"{d_graph:.3e}, eager - eager {d_eager:.3e}, max update {moved:.3e}; mean {loss_key} graphed "
-        f"{float(means_g[loss_key]):.6f} eager {float(means_e[loss_key]):.6f}",
+        f"{float(means_g[loss_key]):.6f} eager {float(means_e[loss_key]):.6f}"
+        + (f"; diagnostics {len(cos_keys)} keys, max |graphed - eager| {d_cos:.2e}" if cos_keys else ""),
         flush=True,
     )
     return bool(ok)
@@ -120,6 +126,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--minibatch-size", type=int, default=16384, help="1 epoch = num_envs * 32 / this minibatches")
     p.add_argument("--matmul-precision", default="highest", choices=["highest", "high", "medium"])
     p.add_argument("--atol", type=float, default=1e-5, help="parameter tolerance when eager runs agree exactly")
+    p.add_argument("--diagnostics-every", type=int, default=None,
+                   help="override grad.diagnostics_every (default: the grad preset's; 1 = measure before every update)")
     p.add_argument("--device", default="cuda")
     p.add_argument("--linalg", default=None, choices=["default", "cusolver", "magma"],
                    help="torch.backends.cuda.preferred_linalg_library (CAGrad's KKT solve: lu_factor / lu_solve)")

@@ -232,9 +232,9 @@ def test_matmul_precision_is_applied_by_the_builder(tmp_path: Path) -> None:
     """``matmul_precision`` reaches ``torch.set_float32_matmul_precision`` (TF32 / bf16 matmuls on CUDA)."""
     before = torch.get_float32_matmul_precision()
     try:
-        _build(tmp_path / "a", "matmul_precision=high")
-        assert torch.get_float32_matmul_precision() == "high"
-        _build(tmp_path / "b")  # the default restores full float32
+        _build(tmp_path / "a", "matmul_precision=highest")
         assert torch.get_float32_matmul_precision() == "highest"
+        _build(tmp_path / "b")  # the default: TF32 matmuls on CUDA
+        assert torch.get_float32_matmul_precision() == "high"
     finally:
         torch.set_float32_matmul_precision(before)

@@ -5,6 +5,7 @@ Known answers: /work/shared/reference/mtrl-algorithms.md section 3 ([verified] v
 
 from __future__ import annotations
 
+import copy
 import math
 from pathlib import Path
 
@@ -811,24 +812,64 @@ def test_graph_update_resolution_for_gradient_methods():
     cuda, cpu = torch.device("cuda"), torch.device("cpu")
     loss, _ = _mt_ppo_minibatch()
     for name in ("pcgrad", "cagrad", "famo"):
-        module = make_gradient_method(name, loss, 3)
-        assert module.cuda_graph_safe and graph_safe_update(module, loss)
-        # auto leaves the captured update of a gradient method off until it is verified on a GPU; true turns it on
-        assert not resolve_graph_update("auto", cuda, graph_safe_update(module, loss), plain_loss=False)
-        assert resolve_graph_update(True, cuda, graph_safe_update(module, loss), plain_loss=False)
-        assert not resolve_graph_update("auto", cpu, graph_safe_update(module, loss), plain_loss=False)
-        assert not resolve_graph_update(False, cuda, graph_safe_update(module, loss))
-        diag = make_gradient_method(name, loss, 3, diagnostics_every=5)
-        assert not graph_safe_update(diag, loss)
-        assert not resolve_graph_update("auto", cuda, graph_safe_update(diag, loss))
-        with pytest.raises(ValueError, match="diagnostics_every"):
-            resolve_graph_update(True, cuda, graph_safe_update(diag, loss))
+        for every in (0, 5):  # diagnostics are scheduled between graph replays: graph-safe either way
+            module = make_gradient_method(name, loss, 3, diagnostics_every=every)
+            assert module.cuda_graph_safe and graph_safe_update(module, loss)
+            assert resolve_graph_update("auto", cuda, graph_safe_update(module, loss))
+            assert resolve_graph_update(True, cuda, graph_safe_update(module, loss))
+            assert not resolve_graph_update("auto", cpu, graph_safe_update(module, loss))
+            assert not resolve_graph_update(False, cuda, graph_safe_update(module, loss))
     diagnostics = make_gradient_method("none", loss, 3, diagnostics_every=1)
-    assert not graph_safe_update(diagnostics, loss)
+    assert diagnostics is not loss and graph_safe_update(diagnostics, loss)
     plain = make_gradient_method("none", loss, 3)
     assert plain is loss and graph_safe_update(plain, loss)
     assert resolve_graph_update("auto", cuda, True)
     assert not resolve_graph_update("auto", cuda, True, "pqn")
+    assert not resolve_graph_update("auto", cuda, False)  # a user's wrapper that does not declare itself safe
+    with pytest.raises(ValueError, match="graph-safe"):
+        resolve_graph_update(True, cuda, False)
+    with pytest.raises(ValueError, match="pqn"):
+        resolve_graph_update(True, cuda, True, "pqn")
+    with pytest.raises(ValueError, match="CUDA"):
+        resolve_graph_update(True, cpu, True)
+
+
+@pytest.mark.parametrize("method", ["none", "pcgrad", "cagrad", "famo"])
+def test_diagnostics_scheduled_by_the_caller_equal_those_of_backward(method):
+    """The protocol of the CUDA-graphed update (``diagnostics_in_backward = False``; before each update
+    ``measure_diagnostics`` when ``diagnostics_due()``, then ``count_update()``) gives the same gradients and the
+    same reported diagnostics at every update as the backward's own schedule, and refreshes the reported tensors
+    in place (a captured graph reads them at fixed addresses)."""
+    loss_a, td = _mt_ppo_minibatch()
+    loss_b = copy.deepcopy(loss_a)
+    a = make_gradient_method(method, loss_a, 3, diagnostics_every=2, **({"seed": 1} if method == "pcgrad" else {}))
+    b = make_gradient_method(method, loss_b, 3, diagnostics_every=2, **({"seed": 1} if method == "pcgrad" else {}))
+    b.diagnostics_in_backward = False
+    params_a = [p for p in loss_a.parameters() if p.requires_grad]
+    params_b = [p for p in loss_b.parameters() if p.requires_grad]
+    opt_a, opt_b = torch.optim.SGD(params_a, lr=0.05), torch.optim.SGD(params_b, lr=0.05)
+    held = None
+    for step in range(5):
+        batch = td[torch.randperm(td.shape[0], generator=torch.Generator().manual_seed(step))]
+        for p in (*params_a, *params_b):
+            p.grad = None
+        out_a = a.backward(batch)
+        if b.diagnostics_due():
+            b.measure_diagnostics(batch)
+        b.count_update()
+        out_b = b.backward(batch)
+        assert a.num_updates == b.num_updates == step + 1
+        for key in DIAGNOSTIC_KEYS:
+            torch.testing.assert_close(out_b[key], out_a[key], equal_nan=True)
+        for pa, pb in zip(params_a, params_b, strict=True):
+            torch.testing.assert_close(pb.grad, pa.grad)
+        if held is None:
+            held = {k: b._last_diagnostics[k] for k in DIAGNOSTIC_KEYS if k in b._last_diagnostics}
+            assert held
+        assert all(b._last_diagnostics[k] is v for k, v in held.items())  # refreshed in place
+        opt_a.step()
+        opt_b.step()
+    assert torch.isfinite(held["grad_cos_critic_mean"]) and -1.0 <= float(held["grad_cos_critic_mean"]) <= 1.0
 
 
 def test_pcgrad_generator_for_graph_capture_and_checkpoints():

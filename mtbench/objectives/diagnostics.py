@@ -52,10 +52,5 @@ class GradientDiagnostics(TaskGradientWrapper):
             critic_keys=critic_keys,
         )
 
-    @property
-    def cuda_graph_safe(self) -> bool:
-        """Never: the measurement schedule is a Python counter, which graph replays do not advance."""
-        return False
-
     def _group_loss(self, task_losses: torch.Tensor, batch_mean: torch.Tensor, present: torch.Tensor) -> torch.Tensor:
         return batch_mean

@@ -153,6 +153,10 @@ class TaskGradientWrapper(LossModule):
         self.critic_keys = None if critic_keys is None else tuple(critic_keys)
         self.task_loss_scale = float(task_loss_scale)
         self.num_updates = 0
+        #: False when the caller schedules the diagnostics (:meth:`diagnostics_due`, :meth:`measure_diagnostics`,
+        #: :meth:`count_update`) instead of :meth:`backward`: the CUDA-graphed minibatch update does, since a graph
+        #: replay runs no Python (``MinibatchUpdate`` sets it)
+        self.diagnostics_in_backward = True
         self.batched_backward = True  # False once a batched backward failed (then K passes every update)
         resolve_param_group(loss_module, params)  # validates that the group exists
         self._diag_groups: list[str] = []
@@ -305,10 +309,10 @@ class TaskGradientWrapper(LossModule):
     @property
     def cuda_graph_safe(self) -> bool:
         """Whether one :meth:`backward` may be captured in a CUDA graph and replayed (the trainer's graphed
-        minibatch update): it is sync-free with fixed shapes, and its state lives in device tensors -- except the
-        Python update counter that schedules the diagnostics, so only without diagnostics
-        (``diagnostics_every == 0``)."""
-        return self.diagnostics_every == 0
+        minibatch update): it is sync-free with fixed shapes and its state lives in device tensors. The diagnostics'
+        Python schedule then runs outside the graph (``diagnostics_in_backward = False``; ``MinibatchUpdate``
+        measures eagerly between replays and the replayed metrics read the measurement's tensors in place)."""
+        return True
 
     def cuda_graph_generators(self) -> list[torch.Generator]:
         """Non-default random generators :meth:`backward` draws from (registered with a captured graph)."""
@@ -324,7 +328,8 @@ class TaskGradientWrapper(LossModule):
     def set_extra_state(self, state: dict[str, Any]) -> None:
         self.num_updates = int(state["num_updates"])
         device = next(iter(self.loss_module.parameters())).device  # checkpoints are loaded on the CPU
-        self._last_diagnostics = {k: v.to(device) for k, v in state["last_diagnostics"].items()}
+        for key, value in state["last_diagnostics"].items():
+            self._store_diagnostic(key, value.to(device))
 
     # ------------------------------------------------------------------ method hooks
     def _combine(self, grads: torch.Tensor, gram_matrix: torch.Tensor, present: torch.Tensor) -> torch.Tensor:
@@ -340,8 +345,30 @@ class TaskGradientWrapper(LossModule):
         return {}
 
     # ------------------------------------------------------------------ backward
-    def _diagnostics_due(self) -> bool:
+    def diagnostics_due(self) -> bool:
+        """Whether the next update is measured (every ``diagnostics_every`` updates, the first one included)."""
         return self.diagnostics_every > 0 and self.num_updates % self.diagnostics_every == 0
+
+    def count_update(self) -> None:
+        """Advance the update counter that schedules the diagnostics (done by :meth:`backward` itself unless
+        ``diagnostics_in_backward`` is False)."""
+        self.num_updates += 1
+
+    def measure_diagnostics(self, tensordict: TensorDictBase) -> None:
+        """Measure the gradient-conflict diagnostics on ``tensordict`` now (eager; no ``.grad`` is written), as
+        :meth:`backward` does when :meth:`diagnostics_due`: for callers that schedule them themselves."""
+        if not self.diagnostics_every:
+            raise RuntimeError("measure_diagnostics needs diagnostics_every > 0")
+        losses = self._task_losses(tensordict)
+        self._diagnostics(losses, losses.present)
+
+    def _store_diagnostic(self, key: str, value: torch.Tensor) -> None:
+        """Keep ``value`` under ``key``, in place when the key exists (a captured graph reads that tensor)."""
+        held = self._last_diagnostics.get(key)
+        if held is not None and held.shape == value.shape and held.device == value.device:
+            held.copy_(value.detach())
+        else:
+            self._last_diagnostics[key] = value.detach().clone()
 
     def backward(self, tensordict: TensorDictBase) -> TensorDictBase:
         """Run the inner loss on ``tensordict``, accumulate the manipulated gradients into ``.grad`` of all
@@ -360,7 +387,7 @@ class TaskGradientWrapper(LossModule):
         present = losses.present
 
         reuse: torch.Tensor | None = None  # per-task gradient matrix of the manipulated group, if computed
-        if self._diagnostics_due():
+        if self.diagnostics_in_backward and self.diagnostics_due():
             reuse = self._diagnostics(losses, present)
 
         # resolved at every call: .to()/load_state_dict on TensorDictParams may replace Parameter objects
@@ -387,7 +414,8 @@ class TaskGradientWrapper(LossModule):
                 p.grad = g.clone() if g._base is not None else g
             else:
                 p.grad.add_(g)
-        self.num_updates += 1
+        if self.diagnostics_in_backward:
+            self.count_update()
         metrics = self._metrics(losses, detach=True)
         for key, value in {**self._last_diagnostics, **self._extra_metrics()}.items():
             metrics.set(key, value)
@@ -417,5 +445,5 @@ class TaskGradientWrapper(LossModule):
                 if self.needs_task_gradients and self.params == g:
                     reuse = grads * self.task_loss_scale
             for name, value in zip(("mean", "min", "max"), stats.unbind(0)):
-                self._last_diagnostics[f"grad_cos_{g}_{name}"] = value.detach()
+                self._store_diagnostic(f"grad_cos_{g}_{name}", value)
         return reuse

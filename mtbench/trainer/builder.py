@@ -118,24 +118,22 @@ def build_gradient_method(grad_cfg: Mapping[str, Any] | None, loss: nn.Module, n
 
 def graph_safe_update(update_module: nn.Module, loss: nn.Module) -> bool:
     """Whether the minibatch update of ``update_module`` may be replayed from a CUDA graph: the plain loss, or a
-    gradient method whose ``cuda_graph_safe`` says so (PCGrad, CAGrad, FAMO without ``diagnostics_every``)."""
+    gradient method whose ``cuda_graph_safe`` says so (PCGrad, CAGrad, FAMO, GradientDiagnostics)."""
     return update_module is loss or bool(getattr(update_module, "cuda_graph_safe", False))
 
 
-def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool, loss_name: str = "ppo",
-                         plain_loss: bool = True) -> bool:
-    """``cudagraph_update``: ``auto`` = on for CUDA with the plain loss (``grad=none``; not for PQN, whose RAdam
-    update has not been checked under CUDA graphs); ``true`` = on, also for the graph-safe gradient methods
-    (:func:`graph_safe_update`: ``pcgrad``, ``cagrad``, ``famo`` without gradient diagnostics; their captured update
-    is built and tested to be free of host syncs on the CPU but not yet verified on a GPU, so ``auto`` leaves it off
-    for them: ``benchmarks/update_check.py`` compares it with the eager update); ``false`` = off."""
+def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool, loss_name: str = "ppo") -> bool:
+    """``cudagraph_update``: ``auto`` = on for CUDA when the update is graph-safe (:func:`graph_safe_update`: the
+    plain loss and every gradient method, their diagnostics scheduled between replays; compared with the eager
+    update on a GPU by ``benchmarks/update_check.py``), not for PQN (its RAdam update has not been checked under
+    CUDA graphs); ``true`` = on (an error where that is not possible); ``false`` = off."""
     if value is None or str(value) == "auto":
-        return device.type == "cuda" and graph_safe and plain_loss and loss_name != "pqn"
+        return device.type == "cuda" and graph_safe and loss_name != "pqn"
     if not isinstance(value, bool):
         raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
     if value and not graph_safe:
-        raise ValueError("cudagraph_update=true is not available with gradient diagnostics (grad.diagnostics_every > "
-                         "0: a Python counter schedules them, which graph replays do not advance); use auto or false")
+        raise ValueError("cudagraph_update=true needs a graph-safe update module (the plain loss, or a gradient "
+                         "method whose cuda_graph_safe is True); use auto or false")
     if value and loss_name == "pqn":
         raise ValueError("cudagraph_update=true is not available with loss=pqn (its RAdam update is not verified "
                          "under CUDA graphs); use auto or false")
@@ -209,7 +207,7 @@ def build_trainer(
         raise ValueError(f"cudagraphs=true needs a CUDA device (device={device})")
     if cfg.get("torch_threads"):
         torch.set_num_threads(int(cfg.torch_threads))
-    torch.set_float32_matmul_precision(str(cfg.get("matmul_precision", "highest")))
+    torch.set_float32_matmul_precision(str(cfg.get("matmul_precision", "high")))
     seed_everything(int(cfg.seed))
     off_policy = cfg.loss.name == "sac"
     if env is None:
@@ -235,8 +233,7 @@ def build_trainer(
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
     update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
     graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
-                                        graph_safe_update(update_module, loss), cfg.loss.name,
-                                        plain_loss=update_module is loss)
+                                        graph_safe_update(update_module, loss), cfg.loss.name)
     optimizer = build_optimizer(loss, cfg.loss, device, capturable=graph_update)
     if cfg.get("compile", False):
         if update_module is not loss:

@@ -72,7 +72,7 @@ def check_config(cfg: DictConfig) -> None:
     if cfg.get("total_frames") is None:
         _int(cfg.get("max_iterations"), "max_iterations", 1)
     _int(cfg.get("torch_threads"), "torch_threads", 1, " (null: torch's default)", optional=True)
-    _choice(cfg.get("matmul_precision", "highest"), "matmul_precision", MATMUL_PRECISIONS)
+    _choice(cfg.get("matmul_precision", "high"), "matmul_precision", MATMUL_PRECISIONS)
     _int(cfg.get("success_window", 5), "success_window", 1)
     _int(cfg.get("max_nonfinite_iterations", 10), "max_nonfinite_iterations", 1)
     ck = cfg.get("checkpoint") or {}

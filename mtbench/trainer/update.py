@@ -27,8 +27,10 @@ class MinibatchUpdate:
     captured once, after 3 eager warm-up updates on a side stream, and replayed; every minibatch is gathered
     into static buffers with ``index_select``. This works for the plain loss and for the gradient methods
     (PCGrad, CAGrad, FAMO: their step is sync-free, PCGrad's order generator is registered with the graph through
-    ``update_module.cuda_graph_generators()``); Python-side state of the update module (e.g. an update counter)
-    does not advance during replays.
+    ``update_module.cuda_graph_generators()``); Python-side state of the update module does not advance during
+    replays, so a module with gradient diagnostics (``diagnostics_every > 0``) has them scheduled here instead:
+    before each graphed update that is due, ``update_module.measure_diagnostics(minibatch)`` runs eagerly, and
+    ``count_update()`` follows every update.
 
     Args:
         update_module: the loss, or the gradient-method wrapper around it.
@@ -68,6 +70,10 @@ class MinibatchUpdate:
         self.metric_keys: list[str] | None = None
         self._metric_buf: torch.Tensor | None = None
         self._static: TensorDictBase | None = None
+        # gradient diagnostics scheduled by this updater when the step is replayed (graph replays run no Python)
+        self._diagnostics = self.graph and int(getattr(update_module, "diagnostics_every", 0) or 0) > 0
+        if hasattr(update_module, "diagnostics_in_backward"):
+            update_module.diagnostics_in_backward = not self._diagnostics
         self._stage = GraphedStage(
             self._static_step,
             self.device,
@@ -144,6 +150,10 @@ class MinibatchUpdate:
                 if self.graph:
                     for key, value in self._static.items(True, True):
                         torch.index_select(batch.get(key), 0, idx, out=value)
+                    if self._diagnostics:
+                        if self.update_module.diagnostics_due():
+                            self.update_module.measure_diagnostics(self._static)
+                        self.update_module.count_update()
                     self._stage()
                     vector = self._metric_buf
                 else:
