@@ -3,7 +3,9 @@
 * per-task table rows: ``table[task_id]`` (autograd's indexed-scatter backward) vs
   :func:`mtbench.modules.task_rows.task_rows` (one-hot matmul backward), tables ``[10, C]``;
 * MOORE's Gram-Schmidt and task mixing on ``[E, B, D]`` expert outputs: the vector recursion then
-  ``einsum(w, U)`` vs the Gram-matrix coefficients ``C`` and ``einsum(w^T C, H)`` (as in ``MOORE.forward``).
+  ``einsum(w, U)`` vs the Gram-matrix coefficients ``C`` and ``einsum(w^T C, H)`` (as in ``MOORE.forward``), and
+  two candidate ways to the float64 Gram matrix: the ``E (E + 1) / 2`` pairwise products summed element-wise
+  (no batched GEMM with 4 x 4 outputs) and ``torch.compile`` of the current form (``--compile``, CUDA).
 
     python benchmarks/kernel_levers.py                 # cuda, B = 16384, E = 4, D = 400
     python benchmarks/kernel_levers.py --device cpu --batch 2048
@@ -24,7 +26,11 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from mtbench.modules.gram_schmidt import gram_schmidt_coefficients, gram_schmidt_vectors  # noqa: E402
+from mtbench.modules.gram_schmidt import (  # noqa: E402
+    coefficients_from_gram,
+    gram_schmidt_coefficients,
+    gram_schmidt_vectors,
+)
 from mtbench.modules.task_rows import task_rows  # noqa: E402
 
 
@@ -51,6 +57,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--experts", type=int, default=4)
     p.add_argument("--dim", type=int, default=400)
     p.add_argument("--repeats", type=int, default=20)
+    p.add_argument("--compile", action="store_true", help="also time torch.compile of the current Gram-Schmidt")
     args = p.parse_args(argv)
     dev = torch.device(args.device)
     gen = torch.Generator(device=dev).manual_seed(0)
@@ -80,8 +87,30 @@ def main(argv: list[str] | None = None) -> None:
         coef = torch.einsum("be,bej->bj", w.to(torch.float64), gram_schmidt_coefficients(h))
         return torch.autograd.grad(torch.einsum("be,ebd->bd", coef.to(h.dtype), h), (h, w), gv)
 
-    print(f"Gram-Schmidt + mixing [{args.experts}, {args.batch}, {args.dim}]: vector recursion "
-          f"{_median_ms(former, dev, args.repeats):.3f}, Gram matrix {_median_ms(current, dev, args.repeats):.3f}")
+    iu = torch.triu_indices(args.experts, args.experts, device=dev)
+
+    def pairwise_gram(h: torch.Tensor) -> torch.Tensor:
+        h64 = h.to(torch.float64)
+        prods = (h64[iu[0]] * h64[iu[1]]).sum(-1)  # [pairs, N]
+        a = prods.new_zeros(args.experts, args.experts, prods.shape[1])
+        a = a.index_put((iu[0], iu[1]), prods).index_put((iu[1], iu[0]), prods)
+        return a.permute(2, 0, 1)  # [N, E, E]
+
+    def pairwise() -> object:
+        coef = torch.einsum("be,bej->bj", w.to(torch.float64), coefficients_from_gram(pairwise_gram(h)))
+        return torch.autograd.grad(torch.einsum("be,ebd->bd", coef.to(h.dtype), h), (h, w), gv)
+
+    ref = current()
+    for got in (former(), pairwise()):  # the variants compute the same gradients
+        for a, b in zip(ref, got, strict=True):
+            torch.testing.assert_close(a, b, rtol=1e-3, atol=1e-4)
+    line = (f"Gram-Schmidt + mixing [{args.experts}, {args.batch}, {args.dim}]: vector recursion "
+            f"{_median_ms(former, dev, args.repeats):.3f}, Gram matrix {_median_ms(current, dev, args.repeats):.3f}, "
+            f"pairwise Gram {_median_ms(pairwise, dev, args.repeats):.3f}")
+    if args.compile:
+        compiled = torch.compile(current)
+        line += f", compiled Gram matrix {_median_ms(compiled, dev, args.repeats):.3f}"
+    print(line)
 
 
 if __name__ == "__main__":

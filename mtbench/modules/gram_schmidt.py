@@ -37,10 +37,15 @@ def gram_schmidt_coefficients(h: torch.Tensor, eps: float = 1e-4, eps_abs: float
     outputs are read twice (Gram matrix, combination) instead of once per projection; float64 keeps
     ``|r_i|^2`` accurate where it is small against ``|h_i|^2`` (nearly dependent experts).
     """
-    e = h.shape[0]
-    a = _Gram.apply(h.to(torch.float64))  # [N, E, E]
+    return coefficients_from_gram(_Gram.apply(h.to(torch.float64)), eps, eps_abs)
+
+
+def coefficients_from_gram(a: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
+    """The Gram-Schmidt coefficients ``C [N, E, E]`` of :func:`gram_schmidt_coefficients` from the per-sample Gram
+    matrix ``a [N, E, E]`` (``a[n, i, j] = h_i . h_j``, float64), however it was computed."""
+    e = a.shape[-1]
     diag = torch.diagonal(a, dim1=-2, dim2=-1)  # |h_i|^2, [N, E]
-    eye = torch.eye(e, dtype=torch.float64, device=h.device)
+    eye = torch.eye(e, dtype=a.dtype, device=a.device)
     rows: list[torch.Tensor] = []
     for i in range(e):
         r = eye[i].expand(a.shape[0], e)
