@@ -1,13 +1,18 @@
-"""End-to-end MT-PPO / MT-GRPO throughput: collection fps, update time and total frames/s.
+"""End-to-end MT-PPO / MT-GRPO / MT-PQN throughput: collection fps, update time and total frames/s.
 
     python benchmarks/train_throughput.py --env mt10_rand --num-envs 24576 --device cuda --iters 10
     python benchmarks/train_throughput.py --env mt10_rand --num-envs 24576 --device cuda --iters 10 --compile --cudagraphs
     python benchmarks/train_throughput.py --env mt10_rand --num-envs 24576 --arch moore --matmul-precision high
+    python benchmarks/train_throughput.py --env mt10_rand --num-envs 8192 --device cuda --loss pqn --arch residual_mlp
     python benchmarks/train_throughput.py --env reach --num-envs 64 --device cpu --iters 3 --minibatch-size 1024
 
 The run uses the real training stack (conf/ + ``mtbench.trainer.build_trainer``: the trainer's rollout over the
-native-autoreset env, the loss's value estimator, 5 epochs of minibatch updates). The first ``--warmup`` iterations (env graph capture, compilation)
-are not timed. Every phase is closed with a device synchronisation so its time is real.
+native-autoreset env, the loss's value estimator, the loss preset's epochs of minibatch updates; ``--loss pqn --env
+mt10_rand`` takes conf/loss/sizing/mt10_rand_pqn.yaml: 16 steps, 8 epochs of minibatches of 32768; give
+``--num-envs 8192`` for the paper's 4 minibatches an epoch). The
+first ``--warmup`` iterations (env graph capture, compilation, the update's graph capture) are not timed. Every phase
+is closed with a device synchronisation so its time is real. The hooks' ``on_iteration_start`` is not called (PQN:
+epsilon stays at its start value 1: uniformly random actions; the timed work is the same).
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--device", default="auto")
     p.add_argument("--iters", type=int, default=5, help="timed iterations")
     p.add_argument("--warmup", type=int, default=2, help="untimed iterations first")
-    p.add_argument("--loss", default="ppo", choices=["ppo", "grpo"])
+    p.add_argument("--loss", default="ppo", choices=["ppo", "grpo", "pqn"])
     p.add_argument("--arch", default="mlp", help="conf/arch preset")
     p.add_argument("--grad", default="none", help="conf/grad preset")
     p.add_argument("--horizon", type=int, default=None, help="override loss.horizon")

@@ -1,17 +1,19 @@
 """GPU correctness check of the CUDA-graphed minibatch update (``cudagraph_update``) for every gradient method:
 the graphed update against the eager one from the same state.
 
-    python benchmarks/update_check.py                                   # cuda, grad none pcgrad cagrad famo
+    python benchmarks/update_check.py                                   # cuda, MT-PPO, grad none pcgrad cagrad famo
     python benchmarks/update_check.py --grads pcgrad --arch moore --matmul-precision high
+    python benchmarks/update_check.py --loss pqn --arch residual_mlp    # MT-PQN: capturable RAdam, found_inf skip
     python benchmarks/update_check.py --device cpu --num-envs 16 --minibatch-size 128   # plumbing only
 
-For each gradient method the real training stack is built (``conf/`` + ``build_trainer``, MT-PPO on ``--env``),
-one rollout is collected and its advantages computed; then, from one saved state (networks, value normaliser,
-optimizer, gradient-method state such as FAMO's logits or PCGrad's generator, the CUDA RNG that draws the
-minibatch permutation), one epoch of minibatch updates is run three times: with the graphed update (3 eager warm-up
-minibatches, the capture, then replays), eagerly, and eagerly again. The eager-vs-eager difference measures the
-run-to-run nondeterminism of the GPU (float atomics in ``index_add``/``scatter``); the check passes when the
-graphed run's largest parameter difference from the eager run is at most ``max(4 x eager-vs-eager, --atol)``.
+For each gradient method the real training stack is built (``conf/`` + ``build_trainer``, ``--loss`` on ``--env``),
+one rollout is collected and its advantages (PQN: Peng's Q(lambda) targets) computed; then, from one saved state
+(networks, value normaliser, optimizer, gradient-method state such as FAMO's logits or PCGrad's generator, the
+CUDA RNG that draws the minibatch permutation), ``--epochs`` epochs of minibatch updates are run three times:
+with the graphed update (3 eager warm-up minibatches, the capture, then replays), eagerly, and eagerly again.
+The eager-vs-eager difference measures the run-to-run nondeterminism of the GPU (float atomics in
+``index_add``/``scatter``); the check passes when the graphed run's largest parameter difference from the eager run
+is at most ``max(4 x eager-vs-eager, --atol)``.
 On a CPU nothing is captured (graphed = eager), so every difference must be exactly 0.
 """
 
@@ -33,6 +35,9 @@ from mtbench.trainer import build_trainer, resolve_device  # noqa: E402
 from mtbench.trainer.update import MinibatchUpdate  # noqa: E402
 
 GRADS = ("none", "pcgrad", "cagrad", "famo")
+#: minibatch size per loss when --minibatch-size is not given (PPO: 4096 worlds x 32 steps / 16384 = 8 updates an
+#: epoch; PQN: 4096 x 16 / 4096 = 16, so that the graph is replayed many times after its 3 warm-up updates)
+DEFAULT_MINIBATCH = {"ppo": 16384, "grpo": 16384, "pqn": 4096}
 
 
 def _state(trainer) -> dict:
@@ -66,12 +71,14 @@ def _max_diff(a: list[torch.Tensor], b: list[torch.Tensor]) -> float:
 
 
 def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
+    minibatch_size = args.minibatch_size or DEFAULT_MINIBATCH[args.loss]
     overrides = [
-        f"env.name={args.env}", f"env.num_envs={args.num_envs}", "loss=ppo", f"arch={args.arch}", f"grad={grad}",
+        f"env.name={args.env}", f"env.num_envs={args.num_envs}", f"loss={args.loss}", f"arch={args.arch}",
+        f"grad={grad}",
         f"device={device}", "seed=0", "max_iterations=1", f"matmul_precision={args.matmul_precision}",
         f"cudagraph_update={str(device.type == 'cuda').lower()}", "logging.logger=none", "logging.progress=none", "checkpoint.every=0",
         "checkpoint.save_final=false", f"checkpoint.dir={tempfile.mkdtemp(prefix='mtbench-check-')}",
-        f"loss.minibatch_size={args.minibatch_size}",
+        f"loss.minibatch_size={minibatch_size}",
     ]
     if args.diagnostics_every is not None:  # else the grad preset's (measured between graph replays)
         overrides.append(f"grad.diagnostics_every={args.diagnostics_every}")
@@ -84,14 +91,14 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     start = _state(trainer)
     before = _params(trainer)
 
-    means_g, count = graphed.epochs(flat, 1, trainer.minibatch_size)
+    means_g, count = graphed.epochs(flat, args.epochs, trainer.minibatch_size)
     after_graph = _params(trainer)
     eager_runs = []
     for _ in range(2):
         _restore(trainer, start)
         eager = MinibatchUpdate(graphed.update_module, trainer.optimizer, max_grad_norm=graphed.max_grad_norm,
                                 call_hooks=graphed.call_hooks, graph=False, device=graphed.device)
-        means_e, _ = eager.epochs(flat, 1, trainer.minibatch_size)
+        means_e, _ = eager.epochs(flat, args.epochs, trainer.minibatch_size)
         eager_runs.append(_params(trainer))
     trainer.env.close()
 
@@ -106,7 +113,7 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
         d_graph <= max(4.0 * d_eager, args.atol)
     ) and d_cos <= 1e-3
     print(
-        f"{'PASS' if ok else 'FAIL'} grad={grad} arch={args.arch} matmul_precision={args.matmul_precision} "
+        f"{'PASS' if ok else 'FAIL'} loss={args.loss} grad={grad} arch={args.arch} matmul_precision={args.matmul_precision} "
         f"linalg={args.linalg or 'default'} "
         f"graphed={graphed.graph and graphed._stage.captured} minibatches={count}: max |param graphed - eager| "
         f"{d_graph:.3e}, eager - eager {d_eager:.3e}, max update {moved:.3e}; mean {loss_key} graphed "
@@ -123,7 +130,11 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--arch", default="mlp", help="conf/arch preset")
     p.add_argument("--env", default="mt10_rand")
     p.add_argument("--num-envs", type=int, default=4096)
-    p.add_argument("--minibatch-size", type=int, default=16384, help="1 epoch = num_envs * 32 / this minibatches")
+    p.add_argument("--loss", default="ppo", choices=list(DEFAULT_MINIBATCH),
+                   help="conf/loss preset (pqn: RAdam with capturable=True, the non-finite guard's found_inf)")
+    p.add_argument("--minibatch-size", type=int, default=None,
+                   help=f"1 epoch = num_envs * horizon / this minibatches (default per loss: {DEFAULT_MINIBATCH})")
+    p.add_argument("--epochs", type=int, default=1, help="epochs of minibatch updates compared")
     p.add_argument("--matmul-precision", default="highest", choices=["highest", "high", "medium"])
     p.add_argument("--atol", type=float, default=1e-5, help="parameter tolerance when eager runs agree exactly")
     p.add_argument("--diagnostics-every", type=int, default=None,

@@ -5,6 +5,7 @@ PCGrad). The seeded learning run on the real reach env is tests/test_pqn_learnin
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 import signal
@@ -25,6 +26,7 @@ from torchrl.objectives.value import TDLambdaEstimator
 
 from cpu_runs import assert_same_metrics
 from envs_for_tests import SyntheticMTEnv
+from host_sync import allow_capturable_on_cpu, forbid_host_sync
 from test_trainer import _cfg as trainer_cfg
 from test_trainer import _env
 from mtbench.envs import DiscreteActions, bin_values, make_env
@@ -34,6 +36,7 @@ from mtbench.objectives import MTPQNLoss, PengQLambda, compute_gradients, make_g
 from mtbench.trainer import EpsilonSchedule, LinearLRDecay, NonFiniteGuard, TrainerHook, build_trainer
 from mtbench.trainer.hooks.schedules import linear_epsilon
 from mtbench.trainer.skip_found_inf import RAdam
+from mtbench.trainer.update import MinibatchUpdate
 
 CONF = str(Path(__file__).resolve().parents[1] / "conf")
 
@@ -367,11 +370,16 @@ def test_linear_lr_decay_known_answers() -> None:
         assert opt.param_groups[0]["lr"] is lr and float(lr) == pytest.approx(expected)  # in place
 
 
-def test_radam_skips_a_step_on_found_inf_exactly() -> None:
+@pytest.mark.parametrize("capturable", [False, True])
+def test_radam_skips_a_step_on_found_inf_exactly(monkeypatch: pytest.MonkeyPatch, capturable: bool) -> None:
+    """Also on the ``capturable=True`` path (the one a CUDA graph captures; run here on the CPU)."""
+    if capturable:
+        allow_capturable_on_cpu(monkeypatch)
     torch.manual_seed(0)
     p, q = nn.Parameter(torch.randn(5)), nn.Parameter(torch.zeros(5))
     q.data.copy_(p.data)
-    ours, stock = RAdam([p], lr=torch.tensor(1e-2)), torch.optim.RAdam([q], lr=torch.tensor(1e-2))
+    ours = RAdam([p], lr=torch.tensor(1e-2), capturable=capturable)
+    stock = torch.optim.RAdam([q], lr=torch.tensor(1e-2), capturable=capturable)
     for i in range(7):
         grad = torch.randn(5)
         p.grad = grad.clone()
@@ -500,6 +508,103 @@ def test_pcgrad_wraps_the_pqn_loss(tmp_path: Path) -> None:
     assert math.isfinite(trainer.train_iteration()["loss/qvalue"])
 
 
+# ------------------------------------------------------------------------------------------ CUDA-graphed update
+def _rollout_batch(trainer: Any) -> TensorDict:
+    """One collected rollout with its Peng's Q(lambda) targets, flat (what ``Trainer.update`` passes on)."""
+    data, _ = trainer.collect()
+    return trainer.advantage(data).exclude("next").reshape(-1)
+
+
+@pytest.mark.parametrize(("method", "foreach"), [("none", False), ("none", True), ("pcgrad", True)])
+def test_graphed_pqn_step_has_no_host_sync(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, method: str,
+                                           foreach: bool) -> None:
+    """The whole update the CUDA graph captures for ``loss=pqn`` -- the static-buffer gather, ``MTPQNLoss`` (the
+    Peng's Q(lambda) targets are computed before, per rollout), the gradient method's backward, the global clip,
+    the hooks (``NonFiniteGuard`` setting ``found_inf`` on the device; the learning-rate decay and the epsilon
+    schedule run between updates and change their tensors in place) and the ``capturable=True`` RAdam step that
+    honours ``found_inf`` (single-tensor and foreach, the latter the CUDA default) -- converts no tensor to Python
+    and uses no data-dependent shape, on the CPU with the conversions patched to raise."""
+    import mtbench.objectives.task_wrapper as tw
+
+    trainer = build_trainer(_cfg(tmp_path, f"grad={method}"), env=_env())
+    flat = _rollout_batch(trainer)
+    allow_capturable_on_cpu(monkeypatch)
+    params = [p for p in trainer.loss.parameters() if p.requires_grad]
+    lr = torch.tensor(float(trainer.config.loss.lr))
+    trainer.optimizer = RAdam(params, lr=lr, betas=(0.9, 0.999), eps=1e-8, capturable=True, foreach=foreach)
+    updater = MinibatchUpdate(trainer.update_module, trainer.optimizer, max_grad_norm=trainer.updater.max_grad_norm,
+                              call_hooks=trainer._call, graph=True, device="cpu")
+    assert updater.graph and not updater._stage.enabled  # the graphed code path, run eagerly on the CPU
+    updater.epochs(flat, 1, trainer.minibatch_size)  # warm-up (lazy optimizer state), as before a capture
+    monkeypatch.setattr(tw, "check_task_ids", lambda *a, **k: None)  # CPU-only id check (skipped on CUDA)
+    trainer.iteration = 1
+    trainer._call("on_iteration_start")  # epsilon and learning rate: in place, outside the update
+    assert trainer.optimizer.param_groups[0]["lr"] is lr and float(lr) < float(trainer.config.loss.lr)
+
+    def state() -> tuple[list[torch.Tensor], list[torch.Tensor]]:
+        return ([p.detach().clone() for p in params],
+                [t.clone() for p in params for t in trainer.optimizer.state[p].values()])
+
+    def same(a: list[torch.Tensor], b: list[torch.Tensor]) -> bool:
+        return all(torch.equal(x, y) for x, y in zip(a, b, strict=True))
+
+    forbid_host_sync(monkeypatch)
+    before = state()
+    means, count = updater.epochs(flat, 2, trainer.minibatch_size)
+    moved = state()
+    lr.fill_(0.0)  # what a replay reads: the tensor's current value (a zero rate moves no parameter)
+    updater.epochs(flat, 1, trainer.minibatch_size)
+    unmoved = state()
+    bad = flat.clone()
+    bad["value_target"].fill_(float("nan"))  # every update skipped on the device: nothing moves, not even the step
+    lr.fill_(1e-3)
+    bad_means, _ = updater.epochs(bad, 1, trainer.minibatch_size)
+    skipped = state()
+    monkeypatch.undo()
+    assert count == 2 * trainer.num_minibatches and torch.isfinite(means["loss_qvalue"])
+    assert not same(before[0], moved[0]) and not same(before[1], moved[1])
+    assert same(moved[0], unmoved[0]) and not same(moved[1], unmoved[1])  # lr 0: parameters stay, moments move
+    assert float(bad_means["skipped"]) == 1.0
+    assert same(unmoved[0], skipped[0]) and same(unmoved[1], skipped[1])
+
+
+def test_graphed_pqn_update_path_equals_the_eager_one(tmp_path: Path) -> None:
+    """``MinibatchUpdate(graph=True)``'s code path (minibatches gathered into static buffers, the step of the
+    graph) gives exactly the parameters, RAdam state and metrics of the eager path from the same state and seed
+    (on the CPU nothing is captured; benchmarks/update_check.py --loss pqn compares the replayed graph on a GPU)."""
+    trainer = build_trainer(_cfg(tmp_path), env=_env())
+    flat = _rollout_batch(trainer)
+    start = (copy.deepcopy(trainer.loss.state_dict()), copy.deepcopy(trainer.optimizer.state_dict()))
+    results = []
+    for graph in (True, False):
+        trainer.loss.load_state_dict(start[0])
+        trainer.optimizer.load_state_dict(copy.deepcopy(start[1]))
+        torch.manual_seed(3)
+        updater = MinibatchUpdate(trainer.update_module, trainer.optimizer, max_grad_norm=10.0,
+                                  call_hooks=trainer._call, graph=graph, device="cpu")
+        means, _ = updater.epochs(flat, 2, trainer.minibatch_size)
+        results.append(({k: v.clone() for k, v in trainer.loss.state_dict().items()},
+                        copy.deepcopy(trainer.optimizer.state_dict()["state"]), means))
+    (params_g, opt_g, means_g), (params_e, opt_e, means_e) = results
+    assert not all(torch.equal(params_g[k], v) for k, v in start[0].items())
+    for key, value in params_e.items():
+        assert torch.equal(params_g[key], value), key
+    for index, saved in opt_e.items():
+        for key, value in saved.items():
+            assert torch.equal(opt_g[index][key], value), (index, key)
+    assert means_g.keys() == means_e.keys() and all(torch.equal(means_g[k], means_e[k]) for k in means_e)
+
+
+def test_cudagraph_update_resolves_for_pqn(tmp_path: Path) -> None:
+    from mtbench.trainer.builder import graph_safe_update, resolve_graph_update
+
+    trainer = build_trainer(_cfg(tmp_path), env=_env())  # auto on the CPU: off
+    assert not trainer.updater.graph
+    assert graph_safe_update(trainer.update_module, trainer.loss)
+    assert resolve_graph_update("auto", torch.device("cuda"), True)  # what a CUDA run of loss=pqn gets
+    assert resolve_graph_update(True, torch.device("cuda"), True)
+
+
 @pytest.mark.parametrize(
     ("override", "message"),
     [
@@ -511,7 +616,7 @@ def test_pcgrad_wraps_the_pqn_loss(tmp_path: Path) -> None:
         ("loss.anneal_lr=maybe", "loss.anneal_lr must be true or false"),
         ("loss.loss_function=huber", r"unknown loss.loss_function 'huber'; valid choices: \['l2', 'l1', 'smooth_l1"),
         ("loss.name=dqn", r"unknown loss.name 'dqn'; valid choices: \[.*'pqn'.*\]"),
-        ("cudagraph_update=true", "cudagraph_update=true is not available with loss=pqn"),
+        ("cudagraph_update=true", r"cudagraph_update=true needs a CUDA device \(device=cpu\)"),
     ],
 )
 def test_config_errors(tmp_path: Path, override: str, message: str) -> None:

@@ -122,21 +122,20 @@ def graph_safe_update(update_module: nn.Module, loss: nn.Module) -> bool:
     return update_module is loss or bool(getattr(update_module, "cuda_graph_safe", False))
 
 
-def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool, loss_name: str = "ppo") -> bool:
+def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool) -> bool:
     """``cudagraph_update``: ``auto`` = on for CUDA when the update is graph-safe (:func:`graph_safe_update`: the
     plain loss and every gradient method, their diagnostics scheduled between replays; compared with the eager
-    update on a GPU by ``benchmarks/update_check.py``), not for PQN (its RAdam update has not been checked under
-    CUDA graphs); ``true`` = on (an error where that is not possible); ``false`` = off."""
+    update on a GPU by ``benchmarks/update_check.py``), for every on-policy loss (PPO, GRPO; PQN with its capturable
+    RAdam, which honours the non-finite guard's ``found_inf`` on the device; the CPU proof is
+    ``tests/test_pqn.py::test_graphed_pqn_step_has_no_host_sync``); ``true`` = on (an error where that is not
+    possible); ``false`` = off. (``loss=sac``: :func:`~mtbench.trainer.sac_builder.check_sac_features`.)"""
     if value is None or str(value) == "auto":
-        return device.type == "cuda" and graph_safe and loss_name != "pqn"
+        return device.type == "cuda" and graph_safe
     if not isinstance(value, bool):
         raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
     if value and not graph_safe:
         raise ValueError("cudagraph_update=true needs a graph-safe update module (the plain loss, or a gradient "
                          "method whose cuda_graph_safe is True); use auto or false")
-    if value and loss_name == "pqn":
-        raise ValueError("cudagraph_update=true is not available with loss=pqn (its RAdam update is not verified "
-                         "under CUDA graphs); use auto or false")
     if value and device.type != "cuda":
         raise ValueError(f"cudagraph_update=true needs a CUDA device (device={device}); use auto or false")
     return value
@@ -147,7 +146,8 @@ def build_optimizer(
 ) -> torch.optim.Optimizer:
     """Fused Adam (``loss.lr``, ``loss.adam_eps``) over the loss's trainable parameters, with a tensor learning
     rate (changed in place by the adaptive schedule; ``capturable`` for a CUDA-graphed update); RAdam for PQN
-    (:func:`~mtbench.trainer.pqn.build_radam`)."""
+    (:func:`~mtbench.trainer.pqn.build_radam`: a tensor learning rate, ``capturable`` whenever the device is CUDA,
+    so the same optimizer serves the eager and the CUDA-graphed update)."""
     if loss_cfg.get("name") == "pqn":
         return build_radam(loss, loss_cfg, device)
     params = [p for p in loss.parameters() if p.requires_grad]
@@ -233,7 +233,7 @@ def build_trainer(
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
     update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
     graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
-                                        graph_safe_update(update_module, loss), cfg.loss.name)
+                                        graph_safe_update(update_module, loss))
     optimizer = build_optimizer(loss, cfg.loss, device, capturable=graph_update)
     if cfg.get("compile", False):
         if update_module is not loss:

@@ -34,7 +34,8 @@ class MinibatchUpdate:
 
     Args:
         update_module: the loss, or the gradient-method wrapper around it.
-        optimizer: over the parameters to update (fused Adam with ``capturable=True`` for ``graph=True``).
+        optimizer: over the parameters to update (``capturable=True`` for ``graph=True``: fused Adam, or PQN's
+            :class:`~mtbench.trainer.skip_found_inf.RAdam`).
         max_grad_norm: grad-norm clip (``None``: no clip, the norm is still reported as ``grad_norm``).
         clip_groups: clip each named group of parameters separately to ``max_grad_norm`` (e.g. SAC's actor, Q
             networks and temperatures, as MTBench clips each of its optimizers) and report their norms as
@@ -42,7 +43,8 @@ class MinibatchUpdate:
         after_step: called after every ``optimizer.step()`` (inside the captured step with ``graph=True``).
         call_hooks: ``call_hooks(point, metrics)`` runs the hooks of ``point`` (``"before_optimizer_step"``,
             ``"on_update"``); they must be graph-safe.
-        graph: replay the update from a CUDA graph.
+        graph: replay the update from a CUDA graph. On a CPU device the same code path runs (minibatches gathered
+            into the static buffers, the step called eagerly), which the tests compare with the eager path.
         device: the device of the parameters.
     """
 
@@ -78,7 +80,7 @@ class MinibatchUpdate:
             self._static_step,
             self.device,
             warmup=3,
-            stream=torch.cuda.Stream(self.device) if self.graph else None,
+            stream=torch.cuda.Stream(self.device) if self.graph and self.device.type == "cuda" else None,
             generators=self._graph_generators,
             enabled=self.graph,
             name="minibatch update",
