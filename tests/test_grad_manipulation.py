@@ -843,6 +843,34 @@ def test_diagnostics_scheduled_by_the_caller_equal_those_of_backward(method):
     assert torch.isfinite(held["grad_cos_critic_mean"]) and -1.0 <= float(held["grad_cos_critic_mean"]) <= 1.0
 
 
+@pytest.mark.parametrize("method", ["none", "pcgrad", "famo"])
+def test_graphed_update_path_schedules_diagnostics_like_the_eager_one(method):
+    """``MinibatchUpdate(graph=True)`` (its code path runs on a CPU: static buffers, the step called directly)
+    measures the diagnostics between updates and counts them itself; from the same state and permutation it gives
+    exactly the parameters, update counter and mean metrics (``grad_cos_*`` included) of the eager updater."""
+    from mtbench.trainer.update import MinibatchUpdate
+
+    loss, td = _mt_ppo_minibatch()
+    results = []
+    for graph in (False, True):
+        module = make_gradient_method(method, copy.deepcopy(loss), 3, diagnostics_every=3,
+                                      **({"seed": 1} if method == "pcgrad" else {}))
+        params = [p for p in module.loss_module.parameters() if p.requires_grad]
+        opt = torch.optim.Adam(params, lr=1e-3)
+        update = MinibatchUpdate(module, opt, max_grad_norm=1.0, call_hooks=lambda *a: None, graph=graph)
+        assert module.diagnostics_in_backward is not graph
+        torch.manual_seed(0)  # the minibatch permutation
+        means, count = update.epochs(td, 2, td.shape[0] // 4)
+        results.append((means, count, module.num_updates, [p.detach().clone() for p in params]))
+    (m_e, c_e, n_e, p_e), (m_g, c_g, n_g, p_g) = results
+    assert c_e == c_g == 8 and n_e == n_g == 8
+    assert set(DIAGNOSTIC_KEYS) <= m_e.keys() and m_e.keys() == m_g.keys()
+    for key in m_e:
+        torch.testing.assert_close(m_g[key], m_e[key], rtol=0, atol=0, equal_nan=True)
+    for a, b in zip(p_e, p_g, strict=True):
+        assert torch.equal(a, b)
+
+
 def test_pcgrad_generator_for_graph_capture_and_checkpoints():
     """PCGrad exposes its order generator (registered with a captured graph) once created, and re-creates it when
     a checkpoint is loaded, so that a re-capture (without eager warm-up) can register it; orders continue exactly."""

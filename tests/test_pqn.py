@@ -601,8 +601,10 @@ def test_cudagraph_update_resolves_for_pqn(tmp_path: Path) -> None:
     trainer = build_trainer(_cfg(tmp_path), env=_env())  # auto on the CPU: off
     assert not trainer.updater.graph
     assert graph_safe_update(trainer.update_module, trainer.loss)
-    assert resolve_graph_update("auto", torch.device("cuda"), True)  # what a CUDA run of loss=pqn gets
-    assert resolve_graph_update(True, torch.device("cuda"), True)
+    # auto keeps PQN's update eager until update_check.py --loss pqn has compared it on a GPU; true turns it on
+    assert not resolve_graph_update("auto", torch.device("cuda"), True, "pqn")
+    assert resolve_graph_update(True, torch.device("cuda"), True, "pqn")
+    assert resolve_graph_update("auto", torch.device("cuda"), True, "ppo")
 
 
 @pytest.mark.parametrize(

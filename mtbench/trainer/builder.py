@@ -122,15 +122,16 @@ def graph_safe_update(update_module: nn.Module, loss: nn.Module) -> bool:
     return update_module is loss or bool(getattr(update_module, "cuda_graph_safe", False))
 
 
-def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool) -> bool:
+def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool, loss_name: str = "ppo") -> bool:
     """``cudagraph_update``: ``auto`` = on for CUDA when the update is graph-safe (:func:`graph_safe_update`: the
     plain loss and every gradient method, their diagnostics scheduled between replays; compared with the eager
-    update on a GPU by ``benchmarks/update_check.py``), for every on-policy loss (PPO, GRPO; PQN with its capturable
-    RAdam, which honours the non-finite guard's ``found_inf`` on the device; the CPU proof is
+    update on an H200 by ``benchmarks/update_check.py``), for PPO and GRPO; for PQN only with ``true`` until its
+    graphed update has been compared with the eager one on a GPU (``benchmarks/update_check.py --loss pqn``; its
+    capturable RAdam honours the non-finite guard's ``found_inf`` on the device, and the CPU proof is
     ``tests/test_pqn.py::test_graphed_pqn_step_has_no_host_sync``); ``true`` = on (an error where that is not
     possible); ``false`` = off. (``loss=sac``: :func:`~mtbench.trainer.sac_builder.check_sac_features`.)"""
     if value is None or str(value) == "auto":
-        return device.type == "cuda" and graph_safe
+        return device.type == "cuda" and graph_safe and loss_name != "pqn"
     if not isinstance(value, bool):
         raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
     if value and not graph_safe:
@@ -233,7 +234,7 @@ def build_trainer(
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
     update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
     graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
-                                        graph_safe_update(update_module, loss))
+                                        graph_safe_update(update_module, loss), cfg.loss.name)
     optimizer = build_optimizer(loss, cfg.loss, device, capturable=graph_update)
     if cfg.get("compile", False):
         if update_module is not loss:
