@@ -43,7 +43,8 @@ positions, no rotated frames, same joint axes; checked by ``tests/test_go1_inert
 blocks go into Menagerie's bodies unchanged. Armature: the original has none (``asset.armature: 0``), but the
 explicit PD is unstable without it (the stability argument above; the URDF's calf is 0.0087 kg m^2 about the knee
 with its foot, yet a swinging leg's joints see much less); ``URDF_JOINT_ARMATURE`` (0.007 kg m^2) is the smallest
-value measured to keep it stable (docs/parkour.md, "Inertial model"). ``model_version(inertia)`` keys the flat pre-training stage per model.
+value measured to keep it stable (docs/parkour.md, "Inertial model"). ``model_version(inertia)`` keys the flat
+pre-training stage per model.
 """
 
 from __future__ import annotations
