@@ -74,7 +74,7 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     stage = flat_stage_config(cfg)
     assert stage.env.name == "parkour_flat" and stage.env.num_envs == 42
     # the grid and the collision set kept, the fine-tuning's curriculum dropped
-    assert dict(stage.env.overrides) == {"num_rows": 2, "terrain_collision": "all"}
+    assert dict(stage.env.overrides) == {"num_rows": 2, "terrain_collision": "all", "robot_inertia": "menagerie"}
     assert stage.grad.name == "none"  # gradient methods start from the plain architecture's weights
     assert stage.max_iterations == 1 and stage.total_frames is None and stage.seed == 0
     key = stage_key(stage)
@@ -87,6 +87,14 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
                   ["pretrain.seed=1"], ["pretrain.num_envs=84"], ["env.overrides.num_rows=3"]):
         differs = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other)
         assert stage_key(flat_stage_config(differs)) != key, other
+    # and so does the inertial model (the flat stage trains with it); the default's key is the one it had before
+    # robot_inertia existed (the override only enters through robot.model_version)
+    urdf = flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour",
+                                  "env.overrides.robot_inertia=urdf"))
+    assert urdf.env.overrides.robot_inertia == "urdf" and stage_key(urdf) != key
+    without = flat_stage_config(cfg)
+    del without.env.overrides["robot_inertia"]
+    assert stage_key(without) == key
     # and so does a new robot model (a physics change)
     monkeypatch.setattr("mtbench.envs.parkour.robot.MODEL_VERSION", "another-model")
     assert stage_key(stage) != key

@@ -77,7 +77,7 @@ def make_env(
         **overrides: forwarded to :class:`~mtbench.envs.metaworld.MetaWorldEnv` (``seed``, ``rand``,
             ``reward_scale``, ``episode_length``, ``substeps``, ``robot_collision``, ``box_box_collider``, ...) or to
             ``make_parkour_env`` (``num_rows``, ``terrain_seed``, ``seed``, ``episode_length``,
-            ``terrain_collision``, ``terrain_representation``, ...).
+            ``terrain_collision``, ``robot_inertia``, ``terrain_representation``, ...).
     """
     if device is None:
         device = "cuda" if torch.cuda.is_available() else "cpu"

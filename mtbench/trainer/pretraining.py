@@ -80,11 +80,15 @@ def flat_stage_config(cfg: DictConfig) -> DictConfig:
 
 def stage_key(stage: DictConfig) -> str:
     """SHA-256 (hex) of what shapes the pre-trained weights: ``arch``, ``loss``, the flat env, iterations, seed and
-    the robot model's version (``robot.MODEL_VERSION``: a physics change invalidates older stages)."""
-    from ..envs.parkour.robot import MODEL_VERSION
+    the robot model's version (``robot.model_version``: a physics change invalidates older stages). The env override
+    ``robot_inertia`` enters through the model version, not as an override, so the default inertial model keeps the
+    key it had before the override existed, and a ``"urdf"`` stage never shares a ``"menagerie"`` one."""
+    from ..envs.parkour.robot import DEFAULT_INERTIAL_MODEL, model_version
 
     material = {key: _plain(stage.get(key)) for key in ("arch", "loss", "env", "max_iterations", "seed")}
-    material["robot_model"] = MODEL_VERSION
+    overrides = (material.get("env") or {}).get("overrides") or {}
+    inertia = overrides.pop("robot_inertia", DEFAULT_INERTIAL_MODEL)  # popped from the material's own copy
+    material["robot_model"] = model_version(inertia)
     return hashlib.sha256(json.dumps(material, sort_keys=True).encode()).hexdigest()
 
 

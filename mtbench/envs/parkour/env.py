@@ -79,6 +79,9 @@ class ParkourEnv(EnvBase):
             trunk), ``"legs"`` (feet, calves, thighs) or ``"feet"`` (``robot.TERRAIN_COLLISIONS``); the collision
             penalty needs ``"legs"`` or ``"all"``. Without the trunk, policies learn to crawl with the trunk inside
             the ground (docs/parkour.md).
+        robot_inertia: the Go1's masses, centres of mass, inertias and joint armature: ``"menagerie"`` (default,
+            12.74 kg) or ``"urdf"`` (the original's ``go1_with_camera.urdf``, 11.31 kg; ``robot.INERTIAL_MODELS``,
+            docs/parkour.md).
         terrain_representation: ``"tiles"`` (one heightfield per tile, selected per world; physics in tile
             frames) or ``"grid"`` (one heightfield for the whole grid; MuJoCo Warp's heightfield contacts go wrong
             more than ~20 m from its centre: small grids only); see ``scene.py``.
@@ -110,6 +113,7 @@ class ParkourEnv(EnvBase):
         max_init_level: int = cl.MAX_INIT_LEVEL,
         episode_length: int = 2000,
         terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISION,
+        robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL,
         terrain_representation: str = "tiles",
         tile_margin: float = 1.0,
         domain_randomization: bool = True,
@@ -166,7 +170,7 @@ class ParkourEnv(EnvBase):
         self.level = levels.clone()
 
         # physics: one model, one WarpSim, per-world domain randomization
-        self.scene = build_scene(terrain, terrain_collision, terrain_representation, tile_margin)
+        self.scene = build_scene(terrain, terrain_collision, terrain_representation, tile_margin, robot_inertia)
         mjm = self.scene.mjm
         pairs = self.scene.contact_pairs
         nconmax = 4 * pairs if nconmax is None else nconmax  # MuJoCo Warp makes <= 4 contacts per heightfield pair

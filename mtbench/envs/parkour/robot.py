@@ -30,6 +30,21 @@ sphere per leg (URDF radius 2 cm) in its own ``*_foot`` body, so that foot force
 forces (collision penalty) are separate per-body contact forces, as in IsaacGym. The robot does not collide with
 itself (the original disables self-collisions). Robot geoms have priority over the terrain, so a contact uses the
 robot geom's per-world friction (see ``scene.py``).
+
+Inertial model (``inertia`` below, the env's ``robot_inertia``): ``"menagerie"`` (default) keeps Menagerie's masses,
+centres of mass and inertias (12.74 kg: trunk 5.204, hip 0.68, thigh 1.009, calf 0.196 kg, massless feet) and its
+rotor armature. ``"urdf"`` uses the original's ``go1_with_camera.urdf`` (MTBench commit ed2e2b5; ``URDF_INERTIALS``)
+for every link: mass, centre of mass and the full inertia tensor (the URDF gives off-diagonal terms; MuJoCo
+diagonalises it into ``body_inertia``/``body_iquat``), 11.31 kg: trunk 4.8 kg + the 1 g ``imu_link`` (a fixed child
+of the trunk, merged into it as IsaacGym's ``collapse_fixed_joints`` does), hip 0.510, thigh 0.899, calf 0.158 and
+a 60 g foot at the foot sphere's centre (the ``*_foot`` bodies, the URDF's ``*_foot`` links, kept apart by IsaacGym
+through ``dont_collapse``). The two models' kinematic frames are the same (URDF joint origins = Menagerie body
+positions, no rotated frames, same joint axes; checked by ``tests/test_go1_inertia.py``), so the URDF's inertial
+blocks go into Menagerie's bodies unchanged. Armature: the original has none (``asset.armature: 0``), but the
+explicit PD is unstable without it (the stability argument above; the URDF's calf is 0.0087 kg m^2 about the knee
+with its foot, yet a swinging leg's joints see much less); ``URDF_JOINT_ARMATURE`` (0.007 kg m^2) is the smallest
+value measured to keep it stable (docs/parkour.md, "Inertial model"). ``model_version(inertia)`` keys the flat
+pre-training stage per model.
 """
 
 from __future__ import annotations
@@ -58,7 +73,7 @@ JOINT_LIMIT_SOLREF = (0.01, 1.0)
 JOINT_LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 MODEL_VERSION = "go1-2026-11-24-stiff-limits"
 """Changes whenever the robot's physics changes, so that flat pre-training checkpoints of an older model are not
-reused (it is part of the pre-training stage key)."""
+reused (it is part of the pre-training stage key, through :func:`model_version`)."""
 # joint position limits of the original's URDF (go1_with_camera.urdf; IsaacGym enforces them), rad: Menagerie's are
 # wider (hip +-0.863, thigh -0.686..4.501, calf -2.818..-0.888)
 JOINT_RANGES = {"hip": (-0.802851455917, 0.802851455917), "thigh": (-1.0471975512, 4.18879020479),
@@ -87,6 +102,83 @@ CALF_RADIUS, CALF_FROMTO = 0.008, (0.0, 0.0, -0.008, 0.0, 0.0, -0.19)  # URDF bo
 FOOT_RADIUS, FOOT_POS = 0.02, (0.0, 0.0, -0.213)
 
 
+# Inertial models: Menagerie's (default) or the original URDF's (module docstring).
+INERTIAL_MODELS = ("menagerie", "urdf")
+DEFAULT_INERTIAL_MODEL = "menagerie"
+# kg m^2 with inertia="urdf". The original has none (asset.armature 0), but with the explicit -KD qdot at 5 ms the
+# URDF's legs need some: the smallest value (0.5 g m^2 steps) that keeps the explicit damping stable in the worst case
+# (largest eigenvalue of dt * 1.2 KD * (M^-1)_joints below 2 over 300 random free-floating poses: 1.87; armature 0:
+# 6.8, and a standing Go1 chatters and sags to 0.19 m). Measurements: docs/parkour.md, "Inertial model".
+URDF_JOINT_ARMATURE = 0.007
+# go1_with_camera.urdf's inertial blocks (MTBench commit ed2e2b5), link -> (mass kg, centre of mass xyz m in the link
+# frame, inertia about the centre of mass (ixx, iyy, izz, ixy, ixz, iyz) kg m^2); every origin rpy is 0. Copied
+# verbatim, asymmetries included (the calf's is the same on both sides; the hip's x and y signs follow the leg).
+_HIP_I, _THIGH_I = (0.00030528937, 0.000590894859, 0.000396594572), (0.005395867678, 0.005142451046, 0.00102478732)
+_CALF = (0.158015, (0.006286, 0.001307, -0.122269),
+         (0.003607648222, 0.003626771492, 3.5148003e-05, 1.494971e-06, -0.000132778525, -2.8638535e-05))
+_FOOT = (0.06, (0.0, 0.0, 0.0), (9.6e-06, 9.6e-06, 9.6e-06, 0.0, 0.0, 0.0))
+URDF_INERTIALS = {
+    "trunk": (4.8, (0.011611, 0.004437, 0.000108),
+              (0.016130741919, 0.036507810812, 0.044693872053, 0.000593180607, 7.324662e-06, 2.0969537e-05)),
+    "imu_link": (0.001, (0.0, 0.0, 0.0), (0.0001, 0.0001, 0.0001, 0.0, 0.0, 0.0)),
+    "FR_hip": (0.510299, (-0.00541, 0.00074, 6e-06), _HIP_I + (7.788013e-06, 2.2016e-07, 1.7175e-08)),
+    "FL_hip": (0.510299, (-0.00541, -0.00074, 6e-06), _HIP_I + (-7.788013e-06, 2.2016e-07, -1.7175e-08)),
+    "RR_hip": (0.510299, (0.00541, 0.00074, 6e-06), _HIP_I + (-7.788013e-06, -2.2016e-07, 1.7175e-08)),
+    "RL_hip": (0.510299, (0.00541, -0.00074, 6e-06), _HIP_I + (7.788013e-06, -2.2016e-07, -1.7175e-08)),
+    "FR_thigh": (0.898919, (-0.003468, 0.018947, -0.032736), _THIGH_I + (-1.02809e-07, 0.000337529085, 5.816563e-06)),
+    "FL_thigh": (0.898919, (-0.003468, -0.018947, -0.032736), _THIGH_I + (1.02809e-07, 0.000337529085, -5.816563e-06)),
+    "RR_thigh": (0.898919, (-0.003468, 0.018947, -0.032736), _THIGH_I + (-1.02809e-07, 0.000337529085, 5.816563e-06)),
+    "RL_thigh": (0.898919, (-0.003468, -0.018947, -0.032736), _THIGH_I + (1.02809e-07, 0.000337529085, -5.816563e-06)),
+    **{f"{leg}_calf": _CALF for leg in LEGS},
+    **{f"{leg}_foot": _FOOT for leg in LEGS},
+}
+URDF_IMU_POS = (-0.01592, -0.06659, -0.00617)  # imu_joint origin in the trunk frame
+
+
+def _inertia_matrix(full: tuple[float, ...]) -> np.ndarray:
+    ixx, iyy, izz, ixy, ixz, iyz = full
+    return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+
+
+def merge_inertials(parts: list[tuple[float, np.ndarray, np.ndarray]]) -> tuple[float, np.ndarray, np.ndarray]:
+    """Rigidly joined bodies ``(mass, centre of mass [3], inertia about it [3, 3])`` in one frame as one body (the
+    parallel-axis theorem): its ``(mass, centre of mass, inertia about it)``."""
+    mass = sum(m for m, _, _ in parts)
+    com = sum(m * np.asarray(c, dtype=float) for m, c, _ in parts) / mass
+    inertia = np.zeros((3, 3))
+    for m, c, i in parts:
+        d = np.asarray(c, dtype=float) - com
+        inertia += np.asarray(i, dtype=float) + m * (d @ d * np.eye(3) - np.outer(d, d))
+    return mass, com, inertia
+
+
+def urdf_body_inertials() -> dict[str, tuple[float, np.ndarray, np.ndarray]]:
+    """The ``"urdf"`` model's ``body -> (mass, centre of mass, inertia matrix about it)`` in Menagerie's body frames
+    (the trunk with the URDF's ``imu_link`` merged in)."""
+    bodies = {name: (mass, np.asarray(com, dtype=float), _inertia_matrix(full))
+              for name, (mass, com, full) in URDF_INERTIALS.items() if name not in ("trunk", "imu_link")}
+    trunk, imu = URDF_INERTIALS["trunk"], URDF_INERTIALS["imu_link"]
+    bodies[BASE_BODY] = merge_inertials([
+        (trunk[0], np.asarray(trunk[1]), _inertia_matrix(trunk[2])),
+        (imu[0], np.asarray(URDF_IMU_POS) + np.asarray(imu[1]), _inertia_matrix(imu[2])),
+    ])
+    return bodies
+
+
+def model_version(inertia: str = DEFAULT_INERTIAL_MODEL) -> str:
+    """The robot model's version for the flat pre-training key: ``MODEL_VERSION`` for the default inertial model (its
+    key unchanged), ``MODEL_VERSION`` plus the model and its armature otherwise."""
+    _check_inertia(inertia)
+    if inertia == DEFAULT_INERTIAL_MODEL:
+        return MODEL_VERSION
+    return f"{MODEL_VERSION}+{inertia}-inertia-armature-{URDF_JOINT_ARMATURE:g}"
+
+
+def _check_inertia(inertia: str) -> None:
+    if inertia not in INERTIAL_MODELS:
+        raise ValueError(f"unknown robot inertia {inertia!r}; valid choices: {', '.join(INERTIAL_MODELS)}")
+
+
 def _collision_class(body_name: str) -> str:
     if body_name in FOOT_BODIES:
         return "feet"
@@ -95,16 +187,24 @@ def _collision_class(body_name: str) -> str:
     return "all"
 
 
-def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION) -> mujoco.MjSpec:
+def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = DEFAULT_INERTIAL_MODEL,
+             armature: float | None = None) -> mujoco.MjSpec:
     """Menagerie Go1 with PD actuators, URDF-like collision shapes, foot bodies and the original's joint dynamics.
 
     Args:
         terrain_collision: which robot geoms can touch the terrain, one of ``TERRAIN_COLLISIONS``; the others keep
             their shape (and the robot its mass) but never make contacts.
+        inertia: the links' masses, centres of mass and inertias (and the joints' armature), one of
+            ``INERTIAL_MODELS``: ``"menagerie"`` (default) or ``"urdf"`` (the original's; module docstring).
+        armature: joint rotor armature (kg m^2) instead of the model's (``JOINT_ARMATURE`` /
+            ``URDF_JOINT_ARMATURE``); for experiments.
     """
     if terrain_collision not in TERRAIN_COLLISIONS:
         raise ValueError(f"unknown terrain_collision {terrain_collision!r}; valid choices: "
                          f"{', '.join(TERRAIN_COLLISIONS)}")
+    _check_inertia(inertia)
+    if armature is None:
+        armature = JOINT_ARMATURE if inertia == "menagerie" else URDF_JOINT_ARMATURE
     enabled = TERRAIN_COLLISIONS[: TERRAIN_COLLISIONS.index(terrain_collision) + 1]
     spec = mujoco.MjSpec.from_file(str(menagerie_dir("unitree_go1") / "go1.xml"))
     spec.option.timestep = SIM_DT
@@ -118,7 +218,7 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION) -> mujoco.MjSpe
         if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
             joint.damping = [0.0, 0.0, 0.0]
             joint.frictionloss = 0.0
-            joint.armature = JOINT_ARMATURE
+            joint.armature = armature
             joint.range = JOINT_RANGES[joint.name.split("_")[1]]
             joint.solref_limit = list(JOINT_LIMIT_SOLREF)
             joint.solimp_limit = list(JOINT_LIMIT_SOLIMP)
@@ -142,6 +242,12 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION) -> mujoco.MjSpe
         # a massless body welded to the calf: its contact force is the foot's alone
         foot = calf.add_body(name=f"{leg}_foot", pos=list(FOOT_POS))
         add_collision(foot, f"{leg}_foot_sphere", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[FOOT_RADIUS, 0.0, 0.0])
+    if inertia == "urdf":
+        for name, (mass, com, matrix) in urdf_body_inertials().items():
+            body = spec.body(name)
+            body.explicitinertial = True
+            body.mass, body.ipos, body.iquat, body.inertia = mass, list(com), [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+            body.fullinertia = [matrix[0, 0], matrix[1, 1], matrix[2, 2], matrix[0, 1], matrix[0, 2], matrix[1, 2]]
     for i, name in enumerate(JOINT_NAMES):
         spec.add_actuator(
             name=name.replace("_joint", ""),

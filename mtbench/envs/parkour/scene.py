@@ -48,6 +48,7 @@ class ParkourScene:
         mjm: the compiled model (robot free joint first: ``qpos[:7]`` base pose, ``qpos[7:]`` the 12 joints).
         representation: ``"tiles"`` or ``"grid"``.
         terrain_collision: which robot geoms touch the terrain (``robot.TERRAIN_COLLISIONS``).
+        robot_inertia: the robot's inertial model (``robot.INERTIAL_MODELS``).
         hfield_geom: id of the terrain heightfield geom.
         tile_offset: float32 ``[num_rows, num_cols, 3]`` world position of each tile's physics frame origin (zeros for
             ``"grid"``: physics coordinates are world coordinates).
@@ -62,6 +63,7 @@ class ParkourScene:
     tile_offset: np.ndarray
     tile_hfield: np.ndarray
     tile_margin: float
+    robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL
 
     @property
     def contact_pairs(self) -> int:
@@ -75,7 +77,7 @@ def _tile_grid_shape(terrain) -> tuple[int, int]:
 
 
 def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISION, representation: str = "tiles",
-                tile_margin: float = 1.0) -> ParkourScene:
+                tile_margin: float = 1.0, robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL) -> ParkourScene:
     """Compile the Go1 and ``terrain`` (a ``terrain.Terrain``) into one MuJoCo model.
 
     Args:
@@ -85,6 +87,8 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
         representation: one of ``TERRAIN_REPRESENTATIONS``.
         tile_margin: ``"tiles"`` only: metres of the neighbouring grid kept around each tile (less than the
             border).
+        robot_inertia: the robot's masses and inertias, one of ``robot.INERTIAL_MODELS`` (``"menagerie"`` or
+            ``"urdf"``: the original's; ``robot.py``).
     """
     if representation not in TERRAIN_REPRESENTATIONS:
         raise ValueError(f"unknown terrain representation {representation!r}; valid choices: "
@@ -118,7 +122,7 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
         tile_offset = offsets
         tile_hfield = np.arange(nrows * ncols, dtype=np.int32).reshape(nrows, ncols)
 
-    spec = robot.go1_spec(terrain_collision)
+    spec = robot.go1_spec(terrain_collision, robot_inertia)
     spec.option.iterations = SOLVER_ITERATIONS
     spec.option.ls_iterations = LS_ITERATIONS
     nx, ny = pieces[0].shape
@@ -139,4 +143,5 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
     hfield_geom = mujoco.mj_name2id(mjm, mujoco.mjtObj.mjOBJ_GEOM, "terrain")
     return ParkourScene(mjm=mjm, representation=representation, terrain_collision=terrain_collision,
                         hfield_geom=hfield_geom, tile_offset=tile_offset, tile_hfield=tile_hfield,
-                        tile_margin=float(tile_margin) if representation == "tiles" else 0.0)
+                        tile_margin=float(tile_margin) if representation == "tiles" else 0.0,
+                        robot_inertia=robot_inertia)
