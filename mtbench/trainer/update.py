@@ -3,7 +3,8 @@ with hook points, metrics summed on the device, optionally replayed from a CUDA 
 
 from __future__ import annotations
 
-from typing import Callable, Iterable, Mapping, Sequence
+import contextlib
+from typing import Callable, Iterable, Iterator, Mapping, Sequence
 
 import torch
 from tensordict import TensorDictBase
@@ -31,6 +32,9 @@ class MinibatchUpdate:
     replays, so a module with gradient diagnostics (``diagnostics_every > 0``) has them scheduled here instead:
     before each graphed update that is due, ``update_module.measure_diagnostics(minibatch)`` runs eagerly, and
     ``count_update()`` follows every update.
+
+    :meth:`drawn` runs updates on batches that a function makes on the device (the off-policy loop's draw from
+    its full replay buffer); with ``graph=True`` the draw is captured with the step and replayed with it.
 
     Args:
         update_module: the loss, or the gradient-method wrapper around it.
@@ -76,15 +80,14 @@ class MinibatchUpdate:
         self._diagnostics = self.graph and int(getattr(update_module, "diagnostics_every", 0) or 0) > 0
         if hasattr(update_module, "diagnostics_in_backward"):
             update_module.diagnostics_in_backward = not self._diagnostics
-        self._stage = GraphedStage(
-            self._static_step,
-            self.device,
-            warmup=3,
-            stream=torch.cuda.Stream(self.device) if self.graph and self.device.type == "cuda" else None,
-            generators=self._graph_generators,
-            enabled=self.graph,
-            name="minibatch update",
-        )
+        stream = torch.cuda.Stream(self.device) if self.graph and self.device.type == "cuda" else None
+        self._stage = GraphedStage(self._static_step, self.device, warmup=3, stream=stream,
+                                   generators=self._graph_generators, enabled=self.graph, name="minibatch update")
+        # the draw of :meth:`drawn` and the update on its batch, captured together
+        self._draw: Callable[[], TensorDictBase] | None = None
+        self._drawn_stage = GraphedStage(self._drawn_step, self.device, warmup=3, stream=stream,
+                                         generators=self._graph_generators, enabled=self.graph,
+                                         name="drawn minibatch update")
 
     def _graph_generators(self) -> list[torch.Generator]:
         """Non-default generators the update draws from (PCGrad's task orders), registered with the graph."""
@@ -94,6 +97,7 @@ class MinibatchUpdate:
     def reset_graph(self) -> None:
         """Capture again at the next update (e.g. the optimizer state was loaded into new tensors)."""
         self._stage.reset()
+        self._drawn_stage.reset()
 
     def step(self, minibatch: TensorDictBase) -> TensorDictBase:
         """One update on ``minibatch``; returns its metrics (detached device tensors, ``grad_norm`` added)."""
@@ -131,11 +135,31 @@ class MinibatchUpdate:
             self.metric_keys = [k for k, v in metrics.items() if isinstance(v, torch.Tensor) and v.numel() == 1]
         return torch.stack([metrics[k].detach().reshape(()).float() for k in self.metric_keys])
 
-    def _static_step(self) -> None:
-        vector = self._vector(self.step(self._static))
+    @contextlib.contextmanager
+    def _diagnostics_in_backward(self) -> Iterator[None]:
+        """Eager updates of a graphed updater: the module measures its scheduled diagnostics in its backward (and
+        counts its updates), as in the eager path."""
+        if not self._diagnostics:
+            yield
+            return
+        self.update_module.diagnostics_in_backward = True
+        try:
+            yield
+        finally:
+            self.update_module.diagnostics_in_backward = False
+
+    def _keep(self, vector: torch.Tensor) -> None:
+        """Copy an update's metric vector into the persistent buffer that the replays write."""
         if self._metric_buf is None:  # the first calls are eager (graph warm-up)
             self._metric_buf = torch.zeros_like(vector)
         self._metric_buf.copy_(vector)
+
+    def _static_step(self) -> None:
+        self._keep(self._vector(self.step(self._static)))
+
+    def _drawn_step(self) -> None:
+        assert self._draw is not None
+        self._keep(self._vector(self.step(self._draw())))
 
     def epochs(self, batch: TensorDictBase, epochs: int, minibatch_size: int) -> tuple[dict[str, torch.Tensor], int]:
         """``epochs`` passes over a random permutation of the flat ``batch`` in minibatches of ``minibatch_size``
@@ -165,18 +189,46 @@ class MinibatchUpdate:
         assert total is not None and self.metric_keys is not None
         return {k: total[j] / count for j, k in enumerate(self.metric_keys)}, count
 
+    def drawn(self, draw: Callable[[], TensorDictBase], count: int) -> tuple[dict[str, torch.Tensor], int]:
+        """``count`` updates, each on the batch returned by ``draw()``. With ``graph=True`` (CUDA) ``draw`` and
+        the update are captured together, after 3 eager warm-up updates, and replayed ``count`` times: ``draw``
+        must then draw its random numbers on the device, read only tensors that outlive the capture and return a
+        batch of fixed shapes without synchronising with the host (e.g. indices drawn on the device from a full
+        replay buffer, gathered into static buffers and normalised). Another ``draw`` (compared with ``==``)
+        captures again. A module with scheduled gradient diagnostics runs its due updates eagerly, with the
+        diagnostics measured in its backward as in the eager path (same draws, same random numbers).
+
+        Returns ``({key: per-update mean}, number of updates)`` (device tensors; ``({}, 0)`` for ``count=0``)."""
+        if draw != self._draw:
+            self._draw = draw
+            self._drawn_stage.reset()
+        total: torch.Tensor | None = None
+        for _ in range(count):
+            if self._diagnostics and self.update_module.diagnostics_due():
+                with self._diagnostics_in_backward():  # this update as the eager path runs it
+                    vector = self._vector(self.step(draw()))
+            else:
+                self._drawn_stage()
+                if self._diagnostics:
+                    self.update_module.count_update()
+                vector = self._metric_buf
+            total = vector.clone() if total is None else total.add_(vector)
+        if total is None or self.metric_keys is None:
+            return {}, 0
+        return {k: total[j] / count for j, k in enumerate(self.metric_keys)}, count
+
     def run(self, batches: Iterable[TensorDictBase]) -> tuple[dict[str, torch.Tensor], int]:
         """One eager update per batch of ``batches`` (e.g. replay samples, drawn lazily so that each update sees
-        the parameters of the previous one). Returns ``({key: per-update mean}, number of updates)`` (device
-        tensors; ``({}, 0)`` for no batch)."""
-        if self.graph:
-            raise ValueError("MinibatchUpdate.run replays no CUDA graph; build the updater with graph=False")
+        the parameters of the previous one), also with ``graph=True`` (e.g. while the off-policy loop's replay
+        buffer fills: its length, the bound of the draws, still changes). Returns ``({key: per-update mean},
+        number of updates)`` (device tensors; ``({}, 0)`` for no batch)."""
         total: torch.Tensor | None = None
         count = 0
-        for batch in batches:
-            vector = self._vector(self.step(batch))
-            total = vector.clone() if total is None else total.add_(vector)
-            count += 1
+        with self._diagnostics_in_backward():
+            for batch in batches:
+                vector = self._vector(self.step(batch))
+                total = vector.clone() if total is None else total.add_(vector)
+                count += 1
         if total is None or self.metric_keys is None:
             return {}, 0
         return {k: total[j] / count for j, k in enumerate(self.metric_keys)}, count
