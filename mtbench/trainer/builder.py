@@ -128,10 +128,11 @@ def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool, los
     update on an H200 by ``benchmarks/update_check.py``), for PPO and GRPO; for PQN only with ``true`` until its
     graphed update has been compared with the eager one on a GPU (``benchmarks/update_check.py --loss pqn``; its
     capturable RAdam honours the non-finite guard's ``found_inf`` on the device, and the CPU proof is
-    ``tests/test_pqn.py::test_graphed_pqn_step_has_no_host_sync``); ``true`` = on (an error where that is not
-    possible); ``false`` = off. (``loss=sac``: :func:`~mtbench.trainer.sac_builder.check_sac_features`.)"""
+    ``tests/test_pqn.py::test_graphed_pqn_step_has_no_host_sync``); likewise for SAC (graphed once its replay
+    buffer is full; CPU proof in ``tests/test_sac.py``, GPU check ``benchmarks/update_check.py --loss sac``);
+    ``true`` = on (an error where that is not possible); ``false`` = off."""
     if value is None or str(value) == "auto":
-        return device.type == "cuda" and graph_safe and loss_name != "pqn"
+        return device.type == "cuda" and graph_safe and loss_name not in ("pqn", "sac")
     if not isinstance(value, bool):
         raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
     if value and not graph_safe:

@@ -45,6 +45,10 @@ class OffPolicyTrainer(TrainingLoop):
        observations with the current per-task statistics, ``loss`` -- or the gradient method's ``backward`` --,
        clip each parameter group, optimizer step, soft target-network update) through
        :class:`~mtbench.trainer.update.MinibatchUpdate`; one host read of the summed metrics per iteration.
+       With ``cudagraph_update`` the updates run eagerly while the buffer fills (the bound of the uniform draws,
+       ``len(buffer)``, is a host counter that still changes); once it is full, the whole update -- indices
+       drawn on the device, gathered into static buffers, normalised, the step -- is captured once and replayed
+       ``gradient_steps`` times per iteration (:meth:`draw_from_full_replay`).
 
     Args:
         env: batched env with the mtbench contract and native autoreset, possibly a ``TransformedEnv``; with a
@@ -71,6 +75,8 @@ class OffPolicyTrainer(TrainingLoop):
             checkpoints small, and a resumed run refills the buffer from scratch.
         raw_observation_key: root entry holding the raw observation when the env normalises ``observation``.
         config: the run's config (recorded in checkpoints and logs; checked on resume).
+        cudagraph_update: replay the updates from a CUDA graph once the replay buffer is full (``optimizer`` with
+            ``capturable=True``; the CPU runs the same code path eagerly).
     """
 
     resume_keys = (*TrainingLoop.resume_keys, "loss.nstep", "loss.replay_buffer_size")
@@ -99,6 +105,7 @@ class OffPolicyTrainer(TrainingLoop):
         replay_in_checkpoint: bool = True,
         raw_observation_key: str = RAW_OBSERVATION_KEY,
         config: DictConfig | None = None,
+        cudagraph_update: bool = False,
     ) -> None:
         if not (isinstance(gradient_steps, int) and gradient_steps >= 1):
             raise ValueError(f"loss.gradient_steps_per_iteration must be an integer >= 1; got {gradient_steps!r}")
@@ -125,8 +132,13 @@ class OffPolicyTrainer(TrainingLoop):
         device = next(iter(self.optimizer.param_groups[0]["params"])).device
         self.updater = MinibatchUpdate(
             self.update_module, optimizer, max_grad_norm=max_grad_norm, clip_groups=clip_groups,
-            call_hooks=self._call, after_step=target_update, device=device,
+            call_hooks=self._call, after_step=target_update, device=device, graph=cudagraph_update,
         )
+        # the graphed updates' draw from the full buffer: the storage's tensors, static batch buffers, the draw
+        self._replay_source: TensorDictBase | None = None
+        self._replay_layout: tuple | None = None
+        self._static: TensorDictBase | None = None
+        self._draw = self.draw_from_full_replay  # one bound method: MinibatchUpdate.drawn captures per draw
 
     def update_summary(self) -> str:
         """What one iteration's update does, for the front door's banner."""
@@ -146,10 +158,46 @@ class OffPolicyTrainer(TrainingLoop):
         """A replay batch with its observations normalised by the current per-task statistics."""
         return normalize_observations(self.replay.sample(), self.norm)
 
+    def replay_full(self) -> bool:
+        """Whether the replay buffer holds ``capacity`` transitions (its length stays constant from then on)."""
+        return len(self.replay) == self.replay.storage.max_size
+
+    def _prepare_full_replay_draw(self) -> None:
+        """Views of the full storage's tensors and the static batch buffers of :meth:`draw_from_full_replay`;
+        where the storage's tensors changed (re-allocated, other keys), the captured update is dropped and
+        captured again."""
+        source = self.replay.storage.get(slice(None))  # views of the storage's tensors (the buffer is full)
+        layout = tuple((key, value.data_ptr(), value.shape, value.dtype)
+                       for key, value in source.items(True, True))
+        if layout != self._replay_layout:
+            if self._replay_layout is not None:
+                self.updater.reset_graph()
+            self._replay_source, self._replay_layout = source, layout
+            self._static = source[: self.batch_size].clone()
+
+    def draw_from_full_replay(self) -> TensorDictBase:
+        """The batch of :meth:`sample` drawn without the host, from the full buffer: ``torch.randint(0,
+        capacity, (batch_size,), device=storage.device)`` on the default generator -- exactly the draw of
+        TorchRL's ``RandomSampler`` once ``len(buffer) == capacity``, so both give the same indices from the
+        same generator state --, the rows gathered into static buffers (``index_select(out=...)``) and the
+        observations normalised with the current per-task statistics (a shallow copy: the static buffers keep
+        the raw rows). What the CUDA-graphed update captures with the step."""
+        assert self._replay_source is not None and self._static is not None
+        index = torch.randint(0, self.replay.storage.max_size, (self.batch_size,),
+                              device=self.replay.storage.device)
+        for key, value in self._static.items(True, True):
+            torch.index_select(self._replay_source.get(key), 0, index, out=value)
+        return normalize_observations(self._static.clone(False), self.norm)
+
     def update(self, count: int) -> dict[str, torch.Tensor]:
-        """4. ``count`` updates on fresh replay samples; per-update means of the scalar metrics (device tensors)."""
-        batches: Iterator[TensorDictBase] = (self.sample() for _ in range(count))
-        means, done = self.updater.run(batches)
+        """4. ``count`` updates on fresh replay samples; per-update means of the scalar metrics (device tensors).
+        With ``cudagraph_update`` and a full buffer, replayed from a CUDA graph (draw included)."""
+        if self.updater.graph and count and self.replay_full():
+            self._prepare_full_replay_draw()
+            means, done = self.updater.drawn(self._draw, count)
+        else:
+            batches: Iterator[TensorDictBase] = (self.sample() for _ in range(count))
+            means, done = self.updater.run(batches)
         self.updates += done
         return means
 
@@ -201,6 +249,9 @@ class OffPolicyTrainer(TrainingLoop):
         """The n-step carry and (unless ``replay_in_checkpoint`` is off) the replay buffer's content."""
         return {"nstep": self.nstep.state_dict(),
                 "replay": replay_state_dict(self.replay) if self.replay_in_checkpoint else None}
+
+    def _after_optimizer_load(self) -> None:
+        self.updater.reset_graph()  # the loaded optimizer state lives in new tensors: capture again
 
     def _load_extra_state(self, state: dict[str, Any], source: str | os.PathLike[str]) -> None:
         self.nstep.load_state_dict(state["nstep"], self.env.device)

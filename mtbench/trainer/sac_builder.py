@@ -85,14 +85,16 @@ def sac_parameter_groups(loss: MTSACLoss) -> dict[str, list[nn.Parameter]]:
     return {name: params for name, params in groups.items() if params}
 
 
-def build_sac_optimizer(loss: MTSACLoss, loss_cfg: Mapping[str, Any], device: torch.device) -> torch.optim.Adam:
+def build_sac_optimizer(
+    loss: MTSACLoss, loss_cfg: Mapping[str, Any], device: torch.device, capturable: bool = False
+) -> torch.optim.Adam:
     """Fused Adam with one parameter group per network (``actor_lr``, ``critic_lr``, ``alpha_lr``; named, so the
     logs show ``train/lr_actor``, ...), tensor learning rates and ``loss.adam_eps`` (MTBench: three Adam
-    optimizers with torch's defaults)."""
+    optimizers with torch's defaults); ``capturable`` for a CUDA-graphed update."""
     groups = [{"params": params, "name": name, "lr": torch.tensor(float(loss_cfg[SAC_PARAM_GROUPS[name]]),
                                                                     device=device)}
               for name, params in sac_parameter_groups(loss).items()]
-    return torch.optim.Adam(groups, eps=float(loss_cfg.get("adam_eps", 1e-8)), fused=True)
+    return torch.optim.Adam(groups, eps=float(loss_cfg.get("adam_eps", 1e-8)), fused=True, capturable=capturable)
 
 
 def check_sac_features(cfg: DictConfig) -> None:
@@ -100,10 +102,6 @@ def check_sac_features(cfg: DictConfig) -> None:
     for key, what in (("compile", "torch.compile of the networks"), ("cudagraphs", "a CUDA-graphed policy")):
         if cfg.get(key, False):
             raise ValueError(f"{key}=true ({what}) is not supported with loss=sac; set {key}=false")
-    graph = cfg.get("cudagraph_update", "auto")
-    if isinstance(graph, bool) and graph:
-        raise ValueError("cudagraph_update=true is not supported with loss=sac (the off-policy update runs eagerly); "
-                         "use auto or false")
 
 
 def build_sac_trainer(
@@ -118,7 +116,10 @@ def build_sac_trainer(
     """The off-policy loop of ``cfg`` on ``env`` (already built and seeded by
     :func:`~mtbench.trainer.builder.build_trainer`): observation normalisation with a raw copy, networks, loss,
     gradient method (``update_module_factory(loss, num_tasks)``), optimizer, ``SoftUpdate(tau=critic_tau)`` and
-    the hooks."""
+    the hooks. ``cudagraph_update`` (:func:`~mtbench.trainer.builder.resolve_graph_update`; ``auto``: eager for
+    SAC) replays the updates from a CUDA graph once the replay buffer is full, with a ``capturable`` optimizer."""
+    from .builder import graph_safe_update, resolve_graph_update  # builder imports this module
+
     check_sac_features(cfg)
     lc = cfg.loss
     env = add_observation_norm_keep_raw(env, lc)
@@ -127,11 +128,14 @@ def build_sac_trainer(
     loss = build_sac_loss(lc, actor, qvalues, num_tasks, int(env.action_spec.shape[-1]), device)
     target_update = SoftUpdate(loss, tau=float(lc["critic_tau"]))
     max_grad_norm = lc.get("max_grad_norm")
+    update_module = update_module_factory(loss, num_tasks)
+    graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
+                                        graph_safe_update(update_module, loss), "sac")
     return OffPolicyTrainer(
         env,
         actor,
         loss,
-        build_sac_optimizer(loss, lc, device),
+        build_sac_optimizer(loss, lc, device, capturable=graph_update),
         horizon=int(lc.horizon),
         gradient_steps=int(lc.gradient_steps_per_iteration),
         batch_size=int(lc.batch_size),
@@ -141,13 +145,14 @@ def build_sac_trainer(
         warmup_steps=int(lc.warmup_steps),
         total_iterations=total_iterations,
         target_update=target_update.step,
-        update_module=update_module_factory(loss, num_tasks),
+        update_module=update_module,
         max_grad_norm=None if max_grad_norm is None else float(max_grad_norm),
         clip_groups=sac_parameter_groups(loss),
         hooks=hooks,
         success_window=int(cfg.get("success_window", 5)),
         replay_in_checkpoint=bool(lc.get("replay_in_checkpoint", True)),
         config=cfg,
+        cudagraph_update=graph_update,
     )
 
 
