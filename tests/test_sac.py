@@ -20,10 +20,13 @@ from torchrl.objectives.utils import ValueEstimators
 
 from cpu_runs import assert_same_metrics, compose_config, one_torch_thread
 from envs_for_tests import SyntheticMTEnv
+from host_sync import forbid_host_sync
 from mtbench.objectives import MTSACLoss, NStepTransitions, nstep_transitions
 from mtbench.trainer import NonFiniteGuard, OffPolicyTrainer, build_trainer, make_qvalue, make_sac_actor
 from mtbench.trainer.checkpoint import load_checkpoint
 from mtbench.trainer.replay import load_replay_state_dict, make_replay_buffer, replay_state_dict
+from mtbench.trainer.sac_builder import build_sac_optimizer, check_sac_features
+from mtbench.trainer.update import MinibatchUpdate
 
 CONF = str(Path(__file__).resolve().parents[1] / "conf")
 K, STATE, ACT = 3, 5, 2
@@ -384,6 +387,128 @@ def test_resume_is_exact_with_the_replay_buffer_and_without_it(tmp_path: Path):
     assert [h["train/replay_size"] for h in history][:2] == [12, 24] and again.iteration == 12
 
 
+# ---------------------------------------------------------------------------------------------- CUDA-graphed update
+#: buffer of 36 transitions: warm-up iterations 0-3 (12 transitions at 3), eager updates at 4 (24), full from 5 on
+GRAPH_RUN = ("loss.replay_buffer_size=36",)
+
+
+def _graphed(trainer: OffPolicyTrainer) -> OffPolicyTrainer:
+    """``trainer`` with what ``cudagraph_update=true`` builds on a GPU: a ``capturable=True`` optimizer and
+    ``MinibatchUpdate(graph=True)`` (on the CPU its code path runs eagerly: nothing is captured)."""
+    eager = trainer.updater
+    trainer.optimizer = build_sac_optimizer(trainer.loss, trainer.config.loss, torch.device("cpu"), capturable=True)
+    trainer.updater = MinibatchUpdate(trainer.update_module, trainer.optimizer, max_grad_norm=eager.max_grad_norm,
+                                      clip_groups=eager.clip_groups, call_hooks=trainer._call,
+                                      after_step=eager.after_step, graph=True, device="cpu")
+    assert trainer.updater.graph and not trainer.updater._drawn_stage.enabled
+    return trainer
+
+
+def _counting_draws(trainer: OffPolicyTrainer) -> list[int]:
+    calls: list[int] = []
+    draw = trainer.draw_from_full_replay
+
+    def counted() -> TensorDict:
+        calls.append(trainer.iteration)
+        return draw()
+
+    trainer._draw = counted
+    return calls
+
+
+@pytest.mark.parametrize("grad", ["none", "pcgrad"])
+def test_graphed_sac_update_has_no_host_sync(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, grad: str):
+    """The whole update the CUDA graph captures for ``loss=sac`` once the buffer is full -- indices drawn on the
+    device, rows gathered into the static buffers, observations normalised with the current per-task statistics,
+    ``MTSACLoss`` (twin Q, actor, per-task temperatures; or PCGrad's backward), the three clip groups, the
+    non-finite guard's ``found_inf``, the ``capturable=True`` fused Adam step, the soft target update -- converts
+    no tensor to Python and uses no data-dependent shape, on the CPU with the conversions patched to raise."""
+    import mtbench.objectives.task_wrapper as tw
+
+    trainer = _graphed(build_trainer(_cfg(tmp_path, *GRAPH_RUN, f"grad={grad}", "max_iterations=6"), env=_env()))
+    trainer.train()
+    assert trainer.replay_full() and trainer.updates == 2 * 2
+    monkeypatch.setattr(tw, "check_task_ids", lambda *a, **k: None)  # CPU-only id check (skipped on CUDA)
+    loss = trainer.loss
+
+    def state() -> list[torch.Tensor]:
+        return [t.detach().clone() for t in loss.state_dict().values()] + [
+            t.clone() for s in trainer.optimizer.state.values() for t in s.values()]
+
+    calls = _counting_draws(trainer)
+    before = state()
+    forbid_host_sync(monkeypatch)
+    means = trainer.update(3)
+    after = state()
+    monkeypatch.undo()
+    assert len(calls) == 3 and torch.isfinite(means["loss_qvalue"]) and float(means["skipped"]) == 0.0
+    assert {"loss_actor", "loss_qvalue", "loss_alpha", "grad_norm_actor", "grad_norm_critic",
+            "grad_norm_alpha"} <= set(means)
+    n = len(loss.state_dict())
+    moved = {k for k, a, b in zip(loss.state_dict(), before[:n], after[:n], strict=True) if not torch.equal(a, b)}
+    assert "log_alpha" in moved and any(k.startswith("target_qvalue_network_params") for k in moved)
+    assert any(k.startswith("actor_network_params") for k in moved)
+    assert not all(torch.equal(a, b) for a, b in zip(before[n:], after[n:], strict=True))  # Adam's moments
+
+
+@pytest.mark.parametrize("grad", [(), ("grad=pcgrad", "grad.diagnostics_every=3")])
+def test_graphed_sac_update_path_equals_the_eager_one(tmp_path: Path, grad: tuple[str, ...]):
+    """From the same seed, 9 iterations with the graphed code path (eager updates while the buffer fills, the
+    draw-and-update of the graph once it is full, from iteration 5 on; run eagerly on the CPU) give exactly the
+    metrics, parameters, temperatures, target networks and optimizer state of the eager path (replay samples of
+    TorchRL's sampler; an optimizer without ``capturable``). With PCGrad and diagnostics every 3 updates: due
+    updates run eagerly between the replays. (benchmarks/update_check.py --loss sac compares the replayed CUDA
+    graph with the eager update on a GPU.)"""
+    runs = []
+    for graph in (False, True):
+        trainer = build_trainer(_cfg(tmp_path, *GRAPH_RUN, *grad, "max_iterations=9"), env=_env())
+        if graph:
+            trainer = _graphed(trainer)
+        calls = _counting_draws(trainer)
+        runs.append((trainer, trainer.train(), calls))
+    (eager, eager_history, eager_calls), (graphed, graphed_history, graphed_calls) = runs
+    assert eager_calls == [] and graphed_calls == [5, 5, 6, 6, 7, 7, 8, 8]  # the switch at the first full buffer
+    assert [h["train/replay_size"] for h in graphed_history] == [0, 0, 0, 12, 24, 36, 36, 36, 36]
+    for a, b in zip(eager_history, graphed_history, strict=True):
+        assert_same_metrics(a, b)
+    assert "alpha/task0" in graphed_history[-1] and "loss/qvalue" in graphed_history[-1]
+    if grad:
+        assert "train/grad_cos_critic_mean" in graphed_history[-1]
+    for (key, a), (_, b) in zip(eager.loss.state_dict().items(), graphed.loss.state_dict().items(), strict=True):
+        assert torch.equal(a, b), key  # parameters, target Q networks, log_alpha
+    eager_state, graphed_state = eager.optimizer.state_dict()["state"], graphed.optimizer.state_dict()["state"]
+    assert eager_state.keys() == graphed_state.keys()
+    for index, saved in eager_state.items():
+        for key, value in saved.items():
+            assert torch.equal(graphed_state[index][key], value), (index, key)
+    assert eager.updates == graphed.updates == 2 * 5
+
+
+def test_cudagraph_update_resolves_for_sac():
+    """``cudagraph_update`` for ``loss=sac``: ``true`` on CUDA (graphed once the buffer is full), ``auto`` eager
+    until update_check.py --loss sac has compared it on a GPU, clear errors where it is impossible."""
+    from mtbench.trainer.builder import graph_safe_update, resolve_graph_update
+    from mtbench.objectives import make_gradient_method
+
+    cuda, cpu = torch.device("cuda"), torch.device("cpu")
+    actor, qvalues = _networks()
+    loss = MTSACLoss(actor, qvalues, num_tasks=K)
+    for name in ("none", "pcgrad", "cagrad", "famo"):
+        module = make_gradient_method(name, loss, K)
+        assert graph_safe_update(module, loss)
+        assert resolve_graph_update(True, cuda, graph_safe_update(module, loss), "sac")
+        assert not resolve_graph_update("auto", cuda, graph_safe_update(module, loss), "sac")
+        assert not resolve_graph_update(False, cuda, graph_safe_update(module, loss), "sac")
+    with pytest.raises(ValueError, match=r"cudagraph_update=true needs a CUDA device \(device=cpu\)"):
+        resolve_graph_update(True, cpu, True, "sac")
+    with pytest.raises(ValueError, match="cudagraph_update=true needs a graph-safe update module"):
+        resolve_graph_update(True, cuda, False, "sac")
+    check_sac_features(compose_config(["loss=sac", "cudagraph_update=true"]))  # no longer refused
+    cfg = {"actor_lr": 1e-3, "critic_lr": 1e-3, "alpha_lr": 1e-3}
+    assert not build_sac_optimizer(loss, cfg, cpu).defaults["capturable"]  # the default optimizer is unchanged
+    assert build_sac_optimizer(loss, cfg, cpu, capturable=True).defaults["capturable"]
+
+
 # ---------------------------------------------------------------------------------------------- config
 @pytest.mark.parametrize(
     "override,message",
@@ -400,7 +525,7 @@ def test_resume_is_exact_with_the_replay_buffer_and_without_it(tmp_path: Path):
         ("loss.log_std_bounds=[2,-20]", "loss.log_std_bounds must be \\[min, max\\] with min < max"),
         ("loss.disentangled_alpha=maybe", "loss.disentangled_alpha must be true or false"),
         ("+loss.normalize_value=true", "loss.normalize_value=true is not supported by loss=sac"),
-        ("cudagraph_update=true", "cudagraph_update=true is not supported with loss=sac"),
+        ("cudagraph_update=true", r"cudagraph_update=true needs a CUDA device \(device=cpu\)"),
         ("compile=true", r"compile=true \(torch.compile of the networks\) is not supported with loss=sac"),
     ],
 )
