@@ -5,6 +5,12 @@
     python benchmarks/train_throughput.py --env mt10_rand --num-envs 24576 --arch moore --matmul-precision high
     python benchmarks/train_throughput.py --env mt10_rand --num-envs 8192 --device cuda --loss pqn --arch residual_mlp
     python benchmarks/train_throughput.py --env reach --num-envs 64 --device cpu --iters 3 --minibatch-size 1024
+    python benchmarks/train_throughput.py --env mt10_rand --num-envs 4096 --loss sac --arch mlp_sac \
+        --cudagraph-update true --replay-iterations 16 --iters 20   # MT-SAC, graphed once the buffer is full
+
+``--loss sac`` times whole ``train_iteration()`` calls (their own collection / update timings, each closed by a host
+read) after filling the replay buffer untimed (``--replay-iterations`` x ``num_envs`` transitions, so that the
+CUDA-graphed update -- which starts once the buffer is full -- is what is timed) and ``--warmup`` more iterations.
 
 The run uses the real training stack (conf/ + ``mtbench.trainer.build_trainer``: the trainer's rollout over the
 native-autoreset env, the loss's value estimator, the loss preset's epochs of minibatch updates; ``--loss pqn --env
@@ -38,6 +44,34 @@ def _sync(device: torch.device) -> None:
         torch.cuda.synchronize(device)
 
 
+def _off_policy(trainer, args: argparse.Namespace, device: torch.device, setup_s: float) -> None:
+    """MT-SAC: fill the buffer, ``--warmup`` iterations, then ``--iters`` timed ``train_iteration()`` calls."""
+    print(f"setup {setup_s:.1f}s | sac env={args.env} envs={trainer.num_envs} tasks={trainer.num_tasks} "
+          f"{trainer.update_summary()} device={device} matmul_precision={torch.get_float32_matmul_precision()} "
+          f"graphed_update={trainer.updater.graph}", flush=True)
+    fill = 0
+    while not trainer.replay_full() or trainer.iteration < trainer.warmup_iterations:
+        trainer.train_iteration()
+        fill += 1
+    collect_s, update_s = [], []
+    for i in range(args.warmup + args.iters):
+        m = trainer.train_iteration()
+        tag = "warmup" if i < args.warmup else "timed "
+        print(f"{tag} iter {i + 1}: collect {m['time/collect_s']:.4f}s update {m['time/update_s']:.4f}s total "
+              f"{m['fps']:,.0f} fps captured={trainer.updater._drawn_stage.captured}", flush=True)
+        if i >= args.warmup:
+            collect_s.append(m["time/collect_s"])
+            update_s.append(m["time/update_s"])
+    trainer.env.close()
+    if not collect_s:
+        return
+    c, u = statistics.median(collect_s), statistics.median(update_s)
+    n = trainer.frames_per_batch
+    print(f"\nmedian over {len(collect_s)} iterations (after {fill} filling the buffer): collection {n / c:,.0f} "
+          f"frames/s ({c * 1e3:.1f} ms/iter) | update {u * 1e3:.1f} ms/iter ({u / trainer.gradient_steps * 1e3:.2f} "
+          f"ms/gradient step) | total {n / (c + u):,.0f} frames/s")
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", default="mt10_rand", help="env name for mtbench.envs.make_env (or comma-separated tasks)")
@@ -45,7 +79,9 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--device", default="auto")
     p.add_argument("--iters", type=int, default=5, help="timed iterations")
     p.add_argument("--warmup", type=int, default=2, help="untimed iterations first")
-    p.add_argument("--loss", default="ppo", choices=["ppo", "grpo", "pqn"])
+    p.add_argument("--loss", default="ppo", choices=["ppo", "grpo", "pqn", "sac"])
+    p.add_argument("--replay-iterations", type=int, default=16,
+                   help="--loss sac: replay buffer of this many iterations x num_envs transitions (filled untimed)")
     p.add_argument("--arch", default="mlp", help="conf/arch preset")
     p.add_argument("--grad", default="none", help="conf/grad preset")
     p.add_argument("--horizon", type=int, default=None, help="override loss.horizon")
@@ -93,6 +129,10 @@ def main(argv: list[str] | None = None) -> None:
         overrides.append(f"loss.epochs={args.epochs}")
     if args.minibatch_size is not None:
         overrides.append(f"loss.minibatch_size={args.minibatch_size}")
+    if args.loss == "sac":
+        overrides = [o for o in overrides if not o.startswith("max_iterations=")]
+        overrides += [f"loss.replay_buffer_size={args.replay_iterations * args.num_envs}",
+                      f"max_iterations={args.replay_iterations + args.warmup + args.iters + 8}"]
     overrides += args.override
     with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
         cfg = compose("config", overrides=overrides)
@@ -100,6 +140,9 @@ def main(argv: list[str] | None = None) -> None:
     t = time.perf_counter()
     trainer = build_trainer(cfg)
     _sync(device)
+    if args.loss == "sac":
+        _off_policy(trainer, args, device, time.perf_counter() - t)
+        return
     print(
         f"setup {time.perf_counter() - t:.1f}s | {args.loss} env={args.env} envs={trainer.num_envs} tasks={trainer.num_tasks} "
         f"horizon={trainer.horizon} batch={trainer.frames_per_batch:,} epochs={trainer.epochs} "

@@ -5,6 +5,8 @@ the graphed update against the eager one from the same state.
     python benchmarks/update_check.py --grads pcgrad --arch moore --matmul-precision high
     python benchmarks/update_check.py --loss pqn --arch residual_mlp    # MT-PQN: capturable RAdam, found_inf skip
     python benchmarks/update_check.py --device cpu --num-envs 16 --minibatch-size 128   # plumbing only
+    python benchmarks/update_check.py --loss sac --grads none pcgrad    # MT-SAC: the draw from the full buffer
+    python benchmarks/update_check.py --loss sac --device cpu --num-envs 16 --grads none --minibatch-size 32
 
 For each gradient method the real training stack is built (``conf/`` + ``build_trainer``, ``--loss`` on ``--env``),
 one rollout is collected and its advantages (PQN: Peng's Q(lambda) targets) computed; then, from one saved state
@@ -15,6 +17,13 @@ The eager-vs-eager difference measures the run-to-run nondeterminism of the GPU 
 ``index_add``/``scatter``); the check passes when the graphed run's largest parameter difference from the eager run
 is at most ``max(4 x eager-vs-eager, --atol)``.
 On a CPU nothing is captured (graphed = eager), so every difference must be exactly 0.
+
+``--loss sac`` (:func:`check_sac`): the replay buffer (``--replay-iterations`` x ``num_envs`` transitions) is filled
+by iterations of the real loop (warm-up, then eager updates), then from one saved state (networks, temperatures,
+target networks, optimizer, gradient-method state, CUDA RNG: it draws the replay indices and SAC's actions)
+``--steps`` updates run through ``trainer.update`` with the graphed draw-and-update (3 eager warm-ups, the capture,
+replays) and eagerly (TorchRL's sampler, the same indices), twice; the same criterion, over the parameters, the
+temperatures and the target networks (``--minibatch-size``: ``loss.batch_size``, default 8192).
 """
 
 from __future__ import annotations
@@ -37,7 +46,7 @@ from mtbench.trainer.update import MinibatchUpdate  # noqa: E402
 GRADS = ("none", "pcgrad", "cagrad", "famo")
 #: minibatch size per loss when --minibatch-size is not given (PPO: 4096 worlds x 32 steps / 16384 = 8 updates an
 #: epoch; PQN: 4096 x 16 / 4096 = 16, so that the graph is replayed many times after its 3 warm-up updates)
-DEFAULT_MINIBATCH = {"ppo": 16384, "grpo": 16384, "pqn": 4096}
+DEFAULT_MINIBATCH = {"ppo": 16384, "grpo": 16384, "pqn": 4096, "sac": 8192}
 
 
 def _state(trainer) -> dict:
@@ -70,6 +79,51 @@ def _max_diff(a: list[torch.Tensor], b: list[torch.Tensor]) -> float:
     return max(float((x - y).abs().max()) for x, y in zip(a, b, strict=True))
 
 
+def _report(ok: bool, what: str, d_graph: float, d_eager: float, moved: float, loss_key: str, means_g: dict,
+            means_e: dict) -> None:
+    print(f"{'PASS' if ok else 'FAIL'} {what}: max |param graphed - eager| {d_graph:.3e}, eager - eager "
+          f"{d_eager:.3e}, max update {moved:.3e}; mean {loss_key} graphed {float(means_g[loss_key]):.6f} eager "
+          f"{float(means_e[loss_key]):.6f}", flush=True)
+
+
+def check_sac(grad: str, args: argparse.Namespace, device: torch.device, overrides: list[str]) -> bool:
+    """The graphed MT-SAC update (draw from the full buffer + step) against the eager one (see the module doc)."""
+    capacity = args.replay_iterations * args.num_envs
+    overrides = [o for o in overrides if not o.startswith(("loss.minibatch_size=", "max_iterations="))]
+    overrides += [f"loss.batch_size={args.minibatch_size or DEFAULT_MINIBATCH['sac']}",
+                  f"loss.replay_buffer_size={capacity}", f"max_iterations={args.replay_iterations + 8}"]
+    with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
+        cfg = compose("config", overrides=overrides)
+    trainer = build_trainer(cfg)
+    while not trainer.replay_full():  # warm-up iterations, then eager updates while the buffer fills
+        trainer.train_iteration()
+    graphed = trainer.updater
+    start = _state(trainer)
+
+    def everything() -> list[torch.Tensor]:  # parameters, log_alpha, target Q networks
+        return [t.detach().clone().float() for t in trainer.loss.state_dict().values()]
+
+    before = everything()
+    means_g = trainer.update(args.steps)
+    after_graph = everything()
+    captured = graphed._drawn_stage.captured
+    eager_runs = []
+    for _ in range(2):
+        _restore(trainer, start)
+        trainer.updater = MinibatchUpdate(graphed.update_module, trainer.optimizer, max_grad_norm=graphed.max_grad_norm,
+                                          clip_groups=graphed.clip_groups, call_hooks=graphed.call_hooks,
+                                          after_step=graphed.after_step, graph=False, device=graphed.device)
+        means_e = trainer.update(args.steps)
+        eager_runs.append(everything())
+    trainer.env.close()
+    moved, d_graph = _max_diff(after_graph, before), _max_diff(after_graph, eager_runs[0])
+    d_eager = _max_diff(eager_runs[1], eager_runs[0])
+    ok = all(torch.isfinite(t).all().item() for t in after_graph) and d_graph <= max(4.0 * d_eager, args.atol)
+    _report(ok, f"loss=sac grad={grad} arch={args.arch} matmul_precision={args.matmul_precision} graphed={captured} "
+                f"updates={args.steps} buffer={capacity:,}", d_graph, d_eager, moved, "loss_qvalue", means_g, means_e)
+    return bool(ok)
+
+
 def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     minibatch_size = args.minibatch_size or DEFAULT_MINIBATCH[args.loss]
     overrides = [
@@ -82,6 +136,8 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     ]
     if args.diagnostics_every is not None:  # else the grad preset's (measured between graph replays)
         overrides.append(f"grad.diagnostics_every={args.diagnostics_every}")
+    if args.loss == "sac":
+        return check_sac(grad, args, device, overrides)
     with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
         cfg = compose("config", overrides=overrides)
     trainer = build_trainer(cfg)
@@ -135,6 +191,9 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--minibatch-size", type=int, default=None,
                    help=f"1 epoch = num_envs * horizon / this minibatches (default per loss: {DEFAULT_MINIBATCH})")
     p.add_argument("--epochs", type=int, default=1, help="epochs of minibatch updates compared")
+    p.add_argument("--steps", type=int, default=8, help="--loss sac: updates compared (3 of them graph warm-ups)")
+    p.add_argument("--replay-iterations", type=int, default=8,
+                   help="--loss sac: replay buffer of this many iterations x num_envs transitions")
     p.add_argument("--matmul-precision", default="highest", choices=["highest", "high", "medium"])
     p.add_argument("--atol", type=float, default=1e-5, help="parameter tolerance when eager runs agree exactly")
     p.add_argument("--diagnostics-every", type=int, default=None,
