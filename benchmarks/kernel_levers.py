@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> None:
         return torch.autograd.grad(torch.einsum("be,ebd->bd", w, gram_schmidt_vectors(h)), (h, w), gv)
 
     def current() -> object:
-        coef = torch.einsum("be,bej->bj", w.to(torch.float64), gram_schmidt_coefficients(h))
+        coef = (w.to(torch.float64).unsqueeze(-1) * gram_schmidt_coefficients(h)).sum(1)  # as MOORE.forward
         return torch.autograd.grad(torch.einsum("be,ebd->bd", coef.to(h.dtype), h), (h, w), gv)
 
     iu = torch.triu_indices(args.experts, args.experts, device=dev)
@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None) -> None:
         return a.permute(2, 0, 1)  # [N, E, E]
 
     def pairwise() -> object:
-        coef = torch.einsum("be,bej->bj", w.to(torch.float64), coefficients_from_gram(pairwise_gram(h)))
+        coef = (w.to(torch.float64).unsqueeze(-1) * coefficients_from_gram(pairwise_gram(h))).sum(1)
         return torch.autograd.grad(torch.einsum("be,ebd->bd", coef.to(h.dtype), h), (h, w), gv)
 
     ref = current()

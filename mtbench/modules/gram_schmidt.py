@@ -7,14 +7,17 @@ import torch
 
 
 class _Gram(torch.autograd.Function):
-    """``A[n, i, j] = h_i . h_j`` for ``h [E, N, D]``; the backward is the one matmul ``(dA + dA^T) H`` (autograd
-    of the einsum would run two, one per operand, and add them)."""
+    """``A[n, i, j] = h_i . h_j`` (float64) for ``h [E, N, D]``; the backward is the one matmul ``(dA + dA^T) H`` in
+    ``h``'s own dtype (autograd of the einsum would run two, one per operand, and add them, in float64): only the
+    forward needs float64, for ``|r_i|^2`` (a GPU profile put MOORE's float64 Gram backward at 1.3 ms of an 11 ms
+    update, docs/benchmarks.md §9)."""
 
     generate_vmap_rule = True
 
     @staticmethod
     def forward(h: torch.Tensor) -> torch.Tensor:
-        return torch.einsum("ind,jnd->nij", h, h)
+        h64 = h.to(torch.float64)
+        return torch.einsum("ind,jnd->nij", h64, h64)
 
     @staticmethod
     def setup_context(ctx, inputs, output) -> None:
@@ -24,7 +27,8 @@ class _Gram(torch.autograd.Function):
     def backward(ctx, grad: torch.Tensor) -> torch.Tensor:
         (h,) = ctx.saved_tensors
         # matmul, not einsum: the batched per-task backward (is_grads_batched) vmaps this, einsum has no rule there
-        return torch.matmul(grad + grad.transpose(-1, -2), h.transpose(0, 1)).transpose(0, 1)
+        sym = (grad + grad.transpose(-1, -2)).to(h.dtype)
+        return torch.matmul(sym, h.transpose(0, 1)).transpose(0, 1)
 
 
 def gram_schmidt_coefficients(h: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
@@ -37,7 +41,7 @@ def gram_schmidt_coefficients(h: torch.Tensor, eps: float = 1e-4, eps_abs: float
     outputs are read twice (Gram matrix, combination) instead of once per projection; float64 keeps
     ``|r_i|^2`` accurate where it is small against ``|h_i|^2`` (nearly dependent experts).
     """
-    return coefficients_from_gram(_Gram.apply(h.to(torch.float64)), eps, eps_abs)
+    return coefficients_from_gram(_Gram.apply(h), eps, eps_abs)
 
 
 def coefficients_from_gram(a: torch.Tensor, eps: float = 1e-4, eps_abs: float = 1e-6) -> torch.Tensor:
@@ -49,11 +53,13 @@ def coefficients_from_gram(a: torch.Tensor, eps: float = 1e-4, eps_abs: float = 
     rows: list[torch.Tensor] = []
     for i in range(e):
         r = eye[i].expand(a.shape[0], e)
+        # element-wise products and sums, not einsum: on [N, <=E, E] tensors a batched GEMM wastes its tiles
+        # (a GPU profile put these float64 GEMMs at 1.15 ms of MOORE's 11 ms update, docs/benchmarks.md §9)
         if rows:
             prev = torch.stack(rows, dim=1)  # [N, i, E]: u_j = prev[:, j] @ H
-            proj = torch.einsum("njk,nk->nj", prev, a[:, i])  # h_i . u_j
-            r = r - torch.einsum("nj,njk->nk", proj, prev)
-        sq = torch.einsum("nk,nkl,nl->n", r, a, r).clamp_min(0.0)
+            proj = (prev * a[:, i].unsqueeze(1)).sum(-1)  # h_i . u_j, [N, i]
+            r = r - (proj.unsqueeze(-1) * prev).sum(1)
+        sq = ((r.unsqueeze(-1) * a).sum(1) * r).sum(-1).clamp_min(0.0)  # r A r^T
         sq = sq + (eps * eps) * diag[:, i] + eps_abs * eps_abs
         rows.append(r / sq.sqrt().unsqueeze(-1))
     return torch.stack(rows, dim=1)

@@ -115,7 +115,7 @@ class MOORE(nn.Module):
         w = task_rows(self.task_weights(), tid)  # [B, E]
         if isinstance(self.pre_activation, nn.Identity):
             # sum_e w_e u_e = sum_e (w^T C)_e h_e with u = C h: the orthonormal basis is never materialised
-            coef = torch.einsum("be,bej->bj", w.to(torch.float64), gram_schmidt_coefficients(h, self.gs_eps))
+            coef = (w.to(torch.float64).unsqueeze(-1) * gram_schmidt_coefficients(h, self.gs_eps)).sum(1)  # w^T C
             # a batched matmul, TF32 under matmul_precision=high: its rounding, amplified by the conditioning of the
             # expert outputs (|C| |h| ~ |h_i| / |r_i|), is of the order of the TF32 error of the experts' own layers
             # propagated through Gram-Schmidt (an elementwise sum would read [E, B, D] ~3x more often)
