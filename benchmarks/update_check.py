@@ -80,10 +80,10 @@ def _max_diff(a: list[torch.Tensor], b: list[torch.Tensor]) -> float:
 
 
 def _report(ok: bool, what: str, d_graph: float, d_eager: float, moved: float, loss_key: str, means_g: dict,
-            means_e: dict) -> None:
+            means_e: dict, extra: str = "") -> None:
     print(f"{'PASS' if ok else 'FAIL'} {what}: max |param graphed - eager| {d_graph:.3e}, eager - eager "
           f"{d_eager:.3e}, max update {moved:.3e}; mean {loss_key} graphed {float(means_g[loss_key]):.6f} eager "
-          f"{float(means_e[loss_key]):.6f}", flush=True)
+          f"{float(means_e[loss_key]):.6f}{extra}", flush=True)
 
 
 def check_sac(grad: str, args: argparse.Namespace, device: torch.device, overrides: list[str]) -> bool:
@@ -130,8 +130,8 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
         f"env.name={args.env}", f"env.num_envs={args.num_envs}", f"loss={args.loss}", f"arch={args.arch}",
         f"grad={grad}",
         f"device={device}", "seed=0", "max_iterations=1", f"matmul_precision={args.matmul_precision}",
-        f"cudagraph_update={str(device.type == 'cuda').lower()}", "logging.logger=none", "logging.progress=none", "checkpoint.every=0",
-        "checkpoint.save_final=false", f"checkpoint.dir={tempfile.mkdtemp(prefix='mtbench-check-')}",
+        f"cudagraph_update={str(device.type == 'cuda').lower()}", "logging.logger=none", "logging.progress=none",
+        "checkpoint.every=0", "checkpoint.save_final=false", f"checkpoint.dir={tempfile.mkdtemp(prefix='mtbench-check-')}",
         f"loss.minibatch_size={minibatch_size}",
     ]
     if args.diagnostics_every is not None:  # else the grad preset's (measured between graph replays)
@@ -168,15 +168,10 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     ok = torch.isfinite(torch.stack([p.float().abs().max() for p in after_graph])).all().item() and (
         d_graph <= max(4.0 * d_eager, args.atol)
     ) and d_cos <= 1e-3
-    print(
-        f"{'PASS' if ok else 'FAIL'} loss={args.loss} grad={grad} arch={args.arch} matmul_precision={args.matmul_precision} "
-        f"linalg={args.linalg or 'default'} "
-        f"graphed={graphed.graph and graphed._stage.captured} minibatches={count}: max |param graphed - eager| "
-        f"{d_graph:.3e}, eager - eager {d_eager:.3e}, max update {moved:.3e}; mean {loss_key} graphed "
-        f"{float(means_g[loss_key]):.6f} eager {float(means_e[loss_key]):.6f}"
-        + (f"; diagnostics {len(cos_keys)} keys, max |graphed - eager| {d_cos:.2e}" if cos_keys else ""),
-        flush=True,
-    )
+    _report(ok, f"loss={args.loss} grad={grad} arch={args.arch} matmul_precision={args.matmul_precision} "
+                f"linalg={args.linalg or 'default'} graphed={graphed.graph and graphed._stage.captured} "
+                f"minibatches={count}", d_graph, d_eager, moved, loss_key, means_g, means_e,
+            f"; diagnostics {len(cos_keys)} keys, max |graphed - eager| {d_cos:.2e}" if cos_keys else "")
     return bool(ok)
 
 

@@ -154,6 +154,11 @@ class MinibatchUpdate:
             self._metric_buf = torch.zeros_like(vector)
         self._metric_buf.copy_(vector)
 
+    def _means(self, total: torch.Tensor, count: int) -> dict[str, torch.Tensor]:
+        """``{key: per-update mean}`` of the summed metric vector ``total`` over ``count`` updates."""
+        assert self.metric_keys is not None
+        return {k: total[j] / count for j, k in enumerate(self.metric_keys)}
+
     def _static_step(self) -> None:
         self._keep(self._vector(self.step(self._static)))
 
@@ -187,7 +192,7 @@ class MinibatchUpdate:
                 total = vector.clone() if total is None else total.add_(vector)
         count = epochs * num_minibatches
         assert total is not None and self.metric_keys is not None
-        return {k: total[j] / count for j, k in enumerate(self.metric_keys)}, count
+        return self._means(total, count), count
 
     def drawn(self, draw: Callable[[], TensorDictBase], count: int) -> tuple[dict[str, torch.Tensor], int]:
         """``count`` updates, each on the batch returned by ``draw()``. With ``graph=True`` (CUDA) ``draw`` and
@@ -215,7 +220,7 @@ class MinibatchUpdate:
             total = vector.clone() if total is None else total.add_(vector)
         if total is None or self.metric_keys is None:
             return {}, 0
-        return {k: total[j] / count for j, k in enumerate(self.metric_keys)}, count
+        return self._means(total, count), count
 
     def run(self, batches: Iterable[TensorDictBase]) -> tuple[dict[str, torch.Tensor], int]:
         """One eager update per batch of ``batches`` (e.g. replay samples, drawn lazily so that each update sees
@@ -231,7 +236,7 @@ class MinibatchUpdate:
                 count += 1
         if total is None or self.metric_keys is None:
             return {}, 0
-        return {k: total[j] / count for j, k in enumerate(self.metric_keys)}, count
+        return self._means(total, count), count
 
 
 __all__ = ["MinibatchUpdate"]
