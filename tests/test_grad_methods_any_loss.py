@@ -202,6 +202,9 @@ def test_methods_around_any_loss_match_the_known_maths(name, method):
     metrics = compute_gradients(wrapper, td.clone())
     got_critic = grads_of(critic)
     got_rest = grads_of(rest) if rest else None
+    # laid out like the parameters, as backward() does (the twin-Q ensemble's weight gradients come out of the
+    # batched backward transposed; CUDA's fused Adam refuses grads strided unlike their parameters)
+    assert [p.grad.stride() for p in every if p.grad is not None] == [p.stride() for p in every if p.grad is not None]
     for p in every:
         p.grad = None
     g = reference_task_grads(loss, td, critic_terms, critic, seed=11)

@@ -409,9 +409,10 @@ class TaskGradientWrapper(LossModule):
         else:
             grads_rest = []
         for p, g in zip([*group, *rest], [*grads_group, *grads_rest]):
-            g = g.to(p.dtype)
             if p.grad is None:
-                p.grad = g.clone() if g._base is not None else g
+                # in the parameter's own strides, as ``backward()`` lays out ``.grad`` (the gradient of a
+                # transposed use comes out transposed; fused optimizers refuse grads strided unlike params)
+                p.grad = torch.empty_like(p).copy_(g)
             else:
                 p.grad.add_(g)
         if self.diagnostics_in_backward:
