@@ -9,7 +9,7 @@ from typing import Sequence
 import torch
 from torch import nn
 
-from .experts import ParallelExperts
+from .experts import ParallelExperts, mix_experts
 from .inputs import check_sizes, flatten_inputs, unflatten_output
 from .mlp import mlp_layers
 from .stacked_linear import StackedLinear
@@ -155,7 +155,7 @@ class CARE(nn.Module):
         z_ctx = task_rows(contexts, tid)
         reprs = self.experts(state)  # [E, B, D]
         if self.attention == "dot":
-            scores = torch.einsum("bd,ebd->be", z_ctx.detach(), reprs)
+            scores = (z_ctx.detach().unsqueeze(0) * reprs).sum(-1).t()  # [B, E] (not a batched GEMM: see mix_experts)
         else:
             scores = task_rows(self.attention_logits(contexts.detach()), tid)
         alpha = torch.softmax(scores / self.temperature, dim=-1)  # [B, E]
@@ -170,7 +170,7 @@ class CARE(nn.Module):
     def forward(self, observation: torch.Tensor, task_id: torch.Tensor) -> torch.Tensor:
         obs, tid, batch_shape = flatten_inputs(observation, task_id, self.obs_dim, "care")
         alpha, reprs, z_ctx = self._attend(obs[:, : -self.num_tasks], tid)
-        z_enc = torch.einsum("be,ebd->bd", alpha, reprs)
+        z_enc = mix_experts(alpha, reprs)
         if self.attention_mlp is not None:
             z_enc = self.attention_mlp(z_enc)
         h = self.trunk(torch.cat([z_enc, z_ctx], dim=-1))

@@ -51,7 +51,9 @@ class CompositionalLinear(nn.Module):
         """``x [B, in]``, ``w [B, K]`` -> ``[B, out]``."""
         k, o = self.num_sets, self.out_features
         y = torch.matmul(x, self.weight.reshape(k * o, self.in_features).t()).reshape(x.shape[0], k, o)
-        y = torch.einsum("bk,bko->bo", w, y)
+        # per-sample mixing as a broadcast product and a sum: as a batched GEMM (einsum) its inner dimension is K
+        # forward and 1 backward, which cuBLAS runs as GEMV / SIMT kernels (2.3 ms of a 6.9 ms update on an H200)
+        y = (w.unsqueeze(-1) * y).sum(1)
         if self.bias is not None:
             y = y + w @ self.bias
         return y

@@ -7,7 +7,7 @@ from typing import Sequence
 import torch
 from torch import nn
 
-from .experts import ParallelExperts
+from .experts import ParallelExperts, mix_experts
 from .gram_schmidt import gram_schmidt, gram_schmidt_coefficients
 from .inputs import check_sizes, flatten_inputs, unflatten_output
 from .mlp import activation_class
@@ -116,12 +116,9 @@ class MOORE(nn.Module):
         if isinstance(self.pre_activation, nn.Identity):
             # sum_e w_e u_e = sum_e (w^T C)_e h_e with u = C h: the orthonormal basis is never materialised
             coef = (w.to(torch.float64).unsqueeze(-1) * gram_schmidt_coefficients(h, self.gs_eps)).sum(1)  # w^T C
-            # a batched matmul, TF32 under matmul_precision=high: its rounding, amplified by the conditioning of the
-            # expert outputs (|C| |h| ~ |h_i| / |r_i|), is of the order of the TF32 error of the experts' own layers
-            # propagated through Gram-Schmidt (an elementwise sum would read [E, B, D] ~3x more often)
-            mixed = torch.einsum("be,ebd->bd", coef.to(h.dtype), h)
+            mixed = mix_experts(coef.to(h.dtype), h)
         else:
-            mixed = torch.einsum("be,ebd->bd", w, self.pre_activation(gram_schmidt(h, self.gs_eps)))
+            mixed = mix_experts(w, self.pre_activation(gram_schmidt(h, self.gs_eps)))
         v = self.post_activation(mixed)
         if self.multi_head:
             out = self.heads.forward_selected(v, tid)

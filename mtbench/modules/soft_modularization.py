@@ -112,7 +112,9 @@ class SoftModularization(nn.Module):
         x = u if self.first_input == "product" else f  # [B, D]: the same input for every first-layer module
         for layer, p in zip(self.module_layers, probs):
             x = self.act(layer(x))  # [E, B, D]
-            x = torch.einsum("bij,jbd->ibd", p, x)  # destination i <- sum_j p[i, j] * source j
+            # destination i <- sum_j p[i, j] * source j, as a broadcast product and a sum ([E, E, B, D]): a batched
+            # GEMM over B with E x E tiles runs as slow magma kernels (2.1 ms of a 6.8 ms update on an H200)
+            x = (p.permute(1, 2, 0).unsqueeze(-1) * x.unsqueeze(0)).sum(1)
         out = self.output_layer(x)  # [E, B, out]
         out = out.sum(0) if self.output_reduce == "sum" else out.mean(0)
         return unflatten_output(out, batch_shape)
