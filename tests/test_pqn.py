@@ -601,10 +601,9 @@ def test_cudagraph_update_resolves_for_pqn(tmp_path: Path) -> None:
     trainer = build_trainer(_cfg(tmp_path), env=_env())  # auto on the CPU: off
     assert not trainer.updater.graph
     assert graph_safe_update(trainer.update_module, trainer.loss)
-    # auto keeps PQN's update eager until update_check.py --loss pqn has compared it on a GPU; true turns it on
-    assert not resolve_graph_update("auto", torch.device("cuda"), True, "pqn")
-    assert resolve_graph_update(True, torch.device("cuda"), True, "pqn")
-    assert resolve_graph_update("auto", torch.device("cuda"), True, "ppo")
+    # auto graphs PQN's update on CUDA (update_check.py --loss pqn compared it with the eager one on an H200)
+    assert resolve_graph_update("auto", torch.device("cuda"), graph_safe_update(trainer.update_module, trainer.loss))
+    assert not resolve_graph_update(False, torch.device("cuda"), True)
 
 
 @pytest.mark.parametrize(

@@ -485,8 +485,8 @@ def test_graphed_sac_update_path_equals_the_eager_one(tmp_path: Path, grad: tupl
 
 
 def test_cudagraph_update_resolves_for_sac():
-    """``cudagraph_update`` for ``loss=sac``: ``true`` on CUDA (graphed once the buffer is full), ``auto`` eager
-    until update_check.py --loss sac has compared it on a GPU, clear errors where it is impossible."""
+    """``cudagraph_update`` for ``loss=sac``: ``auto`` and ``true`` on CUDA (graphed once the buffer is full;
+    update_check.py --loss sac compared it with the eager update on an H200), clear errors where it is impossible."""
     from mtbench.trainer.builder import graph_safe_update, resolve_graph_update
     from mtbench.objectives import make_gradient_method
 
@@ -496,13 +496,14 @@ def test_cudagraph_update_resolves_for_sac():
     for name in ("none", "pcgrad", "cagrad", "famo"):
         module = make_gradient_method(name, loss, K)
         assert graph_safe_update(module, loss)
-        assert resolve_graph_update(True, cuda, graph_safe_update(module, loss), "sac")
-        assert not resolve_graph_update("auto", cuda, graph_safe_update(module, loss), "sac")
-        assert not resolve_graph_update(False, cuda, graph_safe_update(module, loss), "sac")
+        assert resolve_graph_update(True, cuda, graph_safe_update(module, loss))
+        assert resolve_graph_update("auto", cuda, graph_safe_update(module, loss))
+        assert not resolve_graph_update("auto", cpu, graph_safe_update(module, loss))
+        assert not resolve_graph_update(False, cuda, graph_safe_update(module, loss))
     with pytest.raises(ValueError, match=r"cudagraph_update=true needs a CUDA device \(device=cpu\)"):
-        resolve_graph_update(True, cpu, True, "sac")
+        resolve_graph_update(True, cpu, True)
     with pytest.raises(ValueError, match="cudagraph_update=true needs a graph-safe update module"):
-        resolve_graph_update(True, cuda, False, "sac")
+        resolve_graph_update(True, cuda, False)
     check_sac_features(compose_config(["loss=sac", "cudagraph_update=true"]))  # no longer refused
     cfg = {"actor_lr": 1e-3, "critic_lr": 1e-3, "alpha_lr": 1e-3}
     assert not build_sac_optimizer(loss, cfg, cpu).defaults["capturable"]  # the default optimizer is unchanged

@@ -122,17 +122,14 @@ def graph_safe_update(update_module: nn.Module, loss: nn.Module) -> bool:
     return update_module is loss or bool(getattr(update_module, "cuda_graph_safe", False))
 
 
-def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool, loss_name: str = "ppo") -> bool:
+def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool) -> bool:
     """``cudagraph_update``: ``auto`` = on for CUDA when the update is graph-safe (:func:`graph_safe_update`: the
-    plain loss and every gradient method, their diagnostics scheduled between replays; compared with the eager
-    update on an H200 by ``benchmarks/update_check.py``), for PPO and GRPO; for PQN only with ``true`` until its
-    graphed update has been compared with the eager one on a GPU (``benchmarks/update_check.py --loss pqn``; its
-    capturable RAdam honours the non-finite guard's ``found_inf`` on the device, and the CPU proof is
-    ``tests/test_pqn.py::test_graphed_pqn_step_has_no_host_sync``); likewise for SAC (graphed once its replay
-    buffer is full; CPU proof in ``tests/test_sac.py``, GPU check ``benchmarks/update_check.py --loss sac``);
-    ``true`` = on (an error where that is not possible); ``false`` = off."""
+    plain loss and every gradient method, their diagnostics scheduled between replays), for every loss (PPO, GRPO,
+    PQN; SAC once its replay buffer is full): each compared with its eager update on an H200 by
+    ``benchmarks/update_check.py [--loss pqn|sac]``; ``true`` = on (an error where that is not possible);
+    ``false`` = off."""
     if value is None or str(value) == "auto":
-        return device.type == "cuda" and graph_safe and loss_name not in ("pqn", "sac")
+        return device.type == "cuda" and graph_safe
     if not isinstance(value, bool):
         raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
     if value and not graph_safe:
@@ -235,7 +232,7 @@ def build_trainer(
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
     update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
     graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
-                                        graph_safe_update(update_module, loss), cfg.loss.name)
+                                        graph_safe_update(update_module, loss))
     optimizer = build_optimizer(loss, cfg.loss, device, capturable=graph_update)
     if cfg.get("compile", False):
         if update_module is not loss:

@@ -116,8 +116,8 @@ def build_sac_trainer(
     """The off-policy loop of ``cfg`` on ``env`` (already built and seeded by
     :func:`~mtbench.trainer.builder.build_trainer`): observation normalisation with a raw copy, networks, loss,
     gradient method (``update_module_factory(loss, num_tasks)``), optimizer, ``SoftUpdate(tau=critic_tau)`` and
-    the hooks. ``cudagraph_update`` (:func:`~mtbench.trainer.builder.resolve_graph_update`; ``auto``: eager for
-    SAC) replays the updates from a CUDA graph once the replay buffer is full, with a ``capturable`` optimizer."""
+    the hooks. ``cudagraph_update`` (:func:`~mtbench.trainer.builder.resolve_graph_update`; ``auto``: on for CUDA)
+    replays the updates from a CUDA graph once the replay buffer is full, with a ``capturable`` optimizer."""
     from .builder import graph_safe_update, resolve_graph_update  # builder imports this module
 
     check_sac_features(cfg)
@@ -130,7 +130,7 @@ def build_sac_trainer(
     max_grad_norm = lc.get("max_grad_norm")
     update_module = update_module_factory(loss, num_tasks)
     graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
-                                        graph_safe_update(update_module, loss), "sac")
+                                        graph_safe_update(update_module, loss))
     return OffPolicyTrainer(
         env,
         actor,
