@@ -36,15 +36,11 @@ from mtbench.envs.parkour import robot as parkour_robot
 from mtbench.envs.parkour.settings import SETTINGS as PARKOUR_SETTINGS
 from mtbench.envs.parkour.terrains import TERRAIN_NAMES as PARKOUR_TERRAINS
 from parkour_collision import TROT_HZ, controller_targets
+from _timing import sync
 
 
 def is_parkour(env_name: str) -> bool:
     return env_name in PARKOUR_SETTINGS or env_name in PARKOUR_TERRAINS
-
-
-def _sync(device: torch.device) -> None:
-    if device.type == "cuda":
-        torch.cuda.synchronize(device)
 
 
 def _contacts_per_world(env) -> float:
@@ -61,10 +57,10 @@ def run_scripted(env, warmup: int) -> tuple[float, int, float, TensorDictBase]:
     for i in range(env.max_episode_steps):
         obs = td["observation"][:, : env.state_dim]
         td["action"] = torch.cat([p(obs[sl]) for p, sl in zip(policies, env.slices)])
-        _sync(env.device)
+        sync(env.device)
         t0 = time.perf_counter()
         _, td = env.step_and_maybe_reset(td)
-        _sync(env.device)
+        sync(env.device)
         if i >= warmup:
             elapsed += time.perf_counter() - t0
             contacts.append(_contacts_per_world(env))
@@ -91,12 +87,12 @@ def run_timed(env, steps: int, warmup: int, policy: str = "random") -> tuple[flo
     for i in range(warmup):
         td["action"] = actions[i]
         _, td = env.step_and_maybe_reset(td)
-    _sync(env.device)
+    sync(env.device)
     t0 = time.perf_counter()
     for i in range(steps):
         td["action"] = actions[warmup + i]
         _, td = env.step_and_maybe_reset(td)
-    _sync(env.device)
+    sync(env.device)
     elapsed = time.perf_counter() - t0
     return elapsed, steps, _contacts_per_world(env), env.pop_episode_stats()
 

@@ -21,14 +21,10 @@ from tensordict import TensorDict
 
 from mtbench.objectives import MTPPOLoss, compute_gradients, make_gradient_method
 from mtbench.trainer.actor_critic import make_actor, make_critic
+from _timing import sync
 
 STATE_DIM, ACTION_DIM = 39, 4
 METHODS = ("none", "pcgrad", "cagrad", "famo")
-
-
-def _sync(device: torch.device) -> None:
-    if device.type == "cuda":
-        torch.cuda.synchronize(device)
 
 
 def make_setup(num_tasks: int, minibatch: int, hidden: list[int], device: torch.device, seed: int = 0):
@@ -73,12 +69,12 @@ def time_method(
 
     for _ in range(warmup):
         update()
-    _sync(device)
+    sync(device)
     times = []
     for _ in range(iters):
         t0 = time.perf_counter()
         update()
-        _sync(device)
+        sync(device)
         times.append((time.perf_counter() - t0) * 1e3)
     return statistics.median(times), min(times)
 

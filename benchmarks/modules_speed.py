@@ -25,25 +25,21 @@ from omegaconf import OmegaConf
 
 from mtbench.envs.metaworld import MT10, TASKS
 from mtbench.modules import ARCHITECTURES, arch_kwargs, make_network
+from _timing import sync
 
 CONF_DIR = Path(__file__).resolve().parents[1] / "conf" / "arch"
-
-
-def _sync(device: torch.device) -> None:
-    if device.type == "cuda":
-        torch.cuda.synchronize(device)
 
 
 def _median_ms(step: Callable[[], None], device: torch.device, warmup: int, repeats: int) -> float:
     for _ in range(warmup):
         step()
-    _sync(device)
+    sync(device)
     times = []
     for _ in range(repeats):
-        _sync(device)
+        sync(device)
         t0 = time.perf_counter()
         step()
-        _sync(device)
+        sync(device)
         times.append((time.perf_counter() - t0) * 1e3)
     return statistics.median(times)
 

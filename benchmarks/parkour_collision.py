@@ -40,6 +40,7 @@ from mtbench.envs.parkour.scene import TERRAIN_REPRESENTATIONS, build_scene
 from mtbench.envs.parkour.terrain import TerrainConfig, generate_terrain
 from mtbench.sim import WarpSim
 from mtbench.sim.warp_sim import FATAL_OVERFLOW
+from _timing import sync
 
 TROT_HZ = 2.0
 # rad added to the default thigh / calf angles at the top of a foot's lift (a nominal Go1 drifts < 0.3 m in 10 s)
@@ -74,11 +75,6 @@ def spawn_states(terrain, scene, n: int, spawn: str, generator: torch.Generator)
     offset = scene.tile_offset[tile[:, 0], tile[:, 1]]
     qpos = np.stack([robot.standing_qpos(tuple(p)) for p in origin - offset + [0.0, 0.0, robot.BASE_INIT_HEIGHT]])
     return torch.tensor(qpos, dtype=torch.float32), torch.tensor(tile)
-
-
-def _sync(device: torch.device) -> None:
-    if device.type == "cuda":
-        torch.cuda.synchronize(device)
 
 
 def _contacts_per_world(sim: WarpSim) -> tuple[float, int]:
@@ -122,7 +118,7 @@ def measure(terrain, representation: str, collision: str, n: int, device: str, s
     cycle = int(round(1.0 / (TROT_HZ * robot.SIM_DT * robot.DECIMATION)))
     targets = controller_targets(controller, cycle).to(sim.device)
     dev = sim.device
-    _sync(dev)
+    sync(dev)
     build_s = time.perf_counter() - t0
 
     bad = torch.zeros(n, dtype=torch.bool, device=dev)
@@ -130,12 +126,12 @@ def measure(terrain, representation: str, collision: str, n: int, device: str, s
         sim.ctrl.copy_(targets[i % cycle].expand(n, -1))
         sim.step()
         bad |= sim.unhealthy()
-    _sync(dev)
+    sync(dev)
     t0 = time.perf_counter()
     for i in range(steps):
         sim.ctrl.copy_(targets[(warmup + i) % cycle].expand(n, -1))
         sim.step()
-    _sync(dev)
+    sync(dev)
     elapsed = time.perf_counter() - t0
     # contact statistics and health over a few more steps (host reads, not timed)
     contacts, fullest, legs = [], 0, torch.zeros(n, dtype=torch.bool, device=dev)

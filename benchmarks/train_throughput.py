@@ -37,11 +37,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from mtbench.trainer import build_trainer, resolve_device  # noqa: E402
-
-
-def _sync(device: torch.device) -> None:
-    if device.type == "cuda":
-        torch.cuda.synchronize(device)
+from _timing import sync  # noqa: E402
 
 
 def _off_policy(trainer, args: argparse.Namespace, device: torch.device, setup_s: float) -> None:
@@ -139,7 +135,7 @@ def main(argv: list[str] | None = None) -> None:
 
     t = time.perf_counter()
     trainer = build_trainer(cfg)
-    _sync(device)
+    sync(device)
     if args.loss == "sac":
         _off_policy(trainer, args, device, time.perf_counter() - t)
         return
@@ -153,14 +149,14 @@ def main(argv: list[str] | None = None) -> None:
     )
     collect_s, update_s = [], []
     for i in range(args.warmup + args.iters):
-        _sync(device)
+        sync(device)
         t0 = time.perf_counter()
         data, stats = trainer.collect()
-        _sync(device)
+        sync(device)
         t1 = time.perf_counter()
         means = trainer.update(trainer.advantage(data))
         skipped = float(means["skipped"]) * trainer.updates_per_iteration  # host read = sync
-        _sync(device)
+        sync(device)
         t2 = time.perf_counter()
         tag = "warmup" if i < args.warmup else "timed "
         print(

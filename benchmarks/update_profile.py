@@ -27,11 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from mtbench.trainer import build_trainer, resolve_device  # noqa: E402
-
-
-def _sync(device: torch.device) -> None:
-    if device.type == "cuda":
-        torch.cuda.synchronize(device)
+from _timing import sync  # noqa: E402
 
 
 def main() -> None:
@@ -68,18 +64,18 @@ def main() -> None:
     step = trainer.updater.step
     for i in range(5):
         step(flat[(i % n) * mb:(i % n + 1) * mb])
-    _sync(device)
+    sync(device)
     t = time.perf_counter()
     for i in range(10):
         step(flat[(i % n) * mb:(i % n + 1) * mb])
-    _sync(device)
+    sync(device)
     print(f"arch={args.arch} grad={args.grad} matmul_precision={args.matmul_precision} device={device}: eager update "
           f"{(time.perf_counter() - t) / 10 * 1e3:.2f} ms/minibatch of {mb}", flush=True)
     activities = [ProfilerActivity.CPU] + ([ProfilerActivity.CUDA] if device.type == "cuda" else [])
     with profile(activities=activities) as prof:
         for i in range(args.profile_steps):
             step(flat[(i % n) * mb:(i % n + 1) * mb])
-        _sync(device)
+        sync(device)
     events = prof.key_averages()
     sort = "cuda_time_total" if device.type == "cuda" else "cpu_time_total"
     print(events.table(sort_by=sort, row_limit=args.rows, max_name_column_width=70))
