@@ -158,6 +158,22 @@ def test_run_episodes_counts_full_episodes_per_task() -> None:
     assert all(0.0 <= s <= 1.0 for s in result.success) and result.metric == "success"
 
 
+def test_run_episodes_resets_a_stateful_policy_after_every_env_reset() -> None:
+    env = SyntheticMTEnv([2, 3, 2], max_episode_steps=5, random_initial_progress=False, seed=0)
+    calls: list[str] = []
+
+    class Stateful:
+        def reset(self) -> None:
+            calls.append("reset")
+
+        def __call__(self, td, deterministic):
+            calls.append("act")
+            return torch.zeros(td.batch_size[0], env.action_dim)
+
+    run_episodes(env, Stateful(), episodes=5, deterministic=True, seed=0)
+    assert calls == (["reset"] + ["act"] * 5) * 3  # 3 passes of 5 steps
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [

@@ -358,6 +358,39 @@ def test_epsilon_schedule_known_answers() -> None:
         EpsilonSchedule().on_train_start(SimpleNamespace(policy=nn.Sequential(nn.Identity())))
 
 
+def test_epsilon_schedule_on_mtbench_clock_known_answers() -> None:
+    """MTBench's ``pqn_agent.py``: ``t = (epoch - 1) * num_envs + num_envs * (step + 1)`` against ``fraction *
+    iterations * num_envs * horizon``: at the paper's sizes the rate reaches its end after 4,000 iterations, not
+    250 (the frames clock)."""
+    explore = EGreedyModule(Categorical(3, shape=(8192, 4)), eps_init=1.0, eps_end=0.005)
+    fake = SimpleNamespace(policy=nn.Sequential(explore), frames=0, iteration=0, num_envs=8192,
+                           total_iterations=50_000, frames_per_batch=8192 * 16, rollout=SimpleNamespace(steps_done=0))
+    hook = EpsilonSchedule(1.0, 0.005, 0.005, clock="mtbench")
+    hook.on_iteration_start(fake)  # epoch 1, step 0: t = 8192
+    assert hook.epsilon == pytest.approx(1.0 - 0.995 / 4000)
+    fake.iteration, fake.frames = 2000, 2000 * 8192 * 16
+    hook.on_rollout_step(fake, 8, 16)  # epoch 2001, before step 8: t = 8192 * (2000 + 8 + 1)
+    assert hook.epsilon == pytest.approx(1.0 - 0.995 * 2009 / 4000) and float(explore.eps) == pytest.approx(
+        hook.epsilon)
+    frames_clock = EpsilonSchedule(1.0, 0.005, 0.005)
+    frames_clock.on_rollout_step(fake, 8, 16)
+    assert frames_clock.epsilon == 0.005  # 2000 iterations are far past the frames clock's 250
+    fake.iteration = 3984
+    hook.on_iteration_start(fake)
+    assert hook.epsilon == pytest.approx(0.005 + 0.995 * 15 / 4000)  # t = 8192 * 3985
+    hook.on_rollout_step(fake, 15, 16)
+    assert hook.epsilon == pytest.approx(0.005)  # t = 8192 * 4000: the end
+    state = hook.state_dict()
+    assert state["clock"] == "mtbench"
+    restored = EpsilonSchedule()
+    restored.load_state_dict(state)
+    assert (restored.clock, restored.epsilon) == ("mtbench", hook.epsilon)
+    restored.load_state_dict({k: v for k, v in state.items() if k != "clock"})  # a checkpoint from before the option
+    assert restored.clock == "frames"
+    with pytest.raises(ValueError, match=r"unknown epsilon clock 'steps'; valid choices: \['frames', 'mtbench'\]"):
+        EpsilonSchedule(clock="steps")
+
+
 def test_linear_lr_decay_known_answers() -> None:
     p = nn.Parameter(torch.zeros(2))
     opt = RAdam([p], lr=torch.tensor(3e-4))
@@ -395,8 +428,11 @@ def test_radam_skips_a_step_on_found_inf_exactly(monkeypatch: pytest.MonkeyPatch
 # ------------------------------------------------------------------------------------------ build_trainer
 def _cfg(tmp_path: Path, *overrides: str):
     """tests/test_trainer.py's small CPU run (2 epochs of 48-sample minibatches over 8-step rollouts, 4 iterations)
-    with loss=pqn and epsilon annealed over half of it."""
-    return trainer_cfg(tmp_path, "loss=pqn", "loss.exploration_fraction=0.5", *overrides)
+    with loss=pqn and epsilon annealed over half of it; per-step observations and the frames clock unless
+    ``overrides`` set ``loss.hold_observation`` / ``loss.epsilon_clock`` (the MT10 sizes turn MTBench's on)."""
+    defaults = [d for d in ("loss.hold_observation=false", "loss.epsilon_clock=frames")
+                if not any(o.startswith(d.split("=")[0] + "=") for o in overrides)]
+    return trainer_cfg(tmp_path, "loss=pqn", "loss.exploration_fraction=0.5", *defaults, *overrides)
 
 
 def test_pqn_configs_compose_with_the_paper_sizes() -> None:
@@ -410,6 +446,8 @@ def test_pqn_configs_compose_with_the_paper_sizes() -> None:
     assert (lc.start_epsilon, lc.end_epsilon, lc.exploration_fraction, lc.anneal_lr) == (1.0, 0.005, 0.005, True)
     assert dict(mt10.env.overrides) == {"reward_version": "paper", "episode_length": 500, "action_scale": 0.005}
     assert mt10.env.num_envs * lc.horizon // lc.minibatch_size == 4
+    assert (lc.hold_observation, lc.epsilon_clock) == (True, "mtbench")  # MTBench's code (docs/pqn.md)
+    assert (small.loss.hold_observation, small.loss.epsilon_clock) == (False, "frames")
     assert small.env.num_envs * small.loss.horizon % small.loss.minibatch_size == 0 and small.max_iterations == 200
     # the measured CPU preset (docs/pqn.md): 32 worlds per task x 8 steps, gamma 0.95, per-task input normalisation
     sl = small.loss
@@ -436,6 +474,85 @@ def test_trainer_builds_the_q_policy_radam_and_schedules(tmp_path: Path) -> None
     assert last["train/lr"] == pytest.approx(1e-3 * (1 - 3 / 4))
 
 
+def test_trainer_anneals_epsilon_on_the_mtbench_clock(tmp_path: Path) -> None:
+    trainer = build_trainer(_cfg(tmp_path, "loss.epsilon_clock=mtbench"), env=_env())
+    assert trainer.get_hook(EpsilonSchedule).clock == "mtbench"
+    history = trainer.train()
+    # the rate of the last step (step 7) of iteration i: t = 12 * (i + 7 + 1) against 0.5 * 4 * 96 = 192
+    assert [round(h["train/epsilon"], 6) for h in history] == [
+        round(linear_epsilon(12 * (i + 8), 1.0, 0.005, 192), 6) for i in range(4)]
+
+
+def _hand_peng_q_lambda(reward: torch.Tensor, boot_next: torch.Tensor, boot_self: torch.Tensor, done: torch.Tensor,
+                        truncated: torch.Tensor, gamma: float, lmbda: float) -> torch.Tensor:
+    """Peng's Q(lambda) of a ``[N, T]`` rollout written out per world and step: ``boot_next[:, t]`` is the value of
+    the state after step t, used unless the step is truncated (then ``boot_self[:, t]``, the value of the step's own
+    input) or done; the trace is cut at done steps."""
+    n, t_max = reward.shape
+    out = torch.zeros(n, t_max)
+    for i in range(n):
+        for t in reversed(range(t_max)):
+            if done[i, t]:
+                out[i, t] = reward[i, t] + gamma * (boot_self[i, t] if truncated[i, t] else 0.0)
+            elif t == t_max - 1:
+                out[i, t] = reward[i, t] + gamma * boot_next[i, t]
+            else:
+                out[i, t] = reward[i, t] + gamma * (lmbda * out[i, t + 1] + (1 - lmbda) * boot_next[i, t])
+    return out
+
+
+def test_hold_observation_acts_on_and_stores_the_first_observation_of_the_rollout(tmp_path: Path) -> None:
+    """``loss.hold_observation`` (MTBench's rollout loop, which never refreshes its observation): every step of a
+    rollout acts on, and stores, the rollout's first observation -- also after an episode end inside it --; the env
+    and the ``("next", ...)`` entries keep the true observations, so the next rollout starts from the true current
+    one; Peng's Q(lambda) bootstraps ``V(o_0)`` inside the window and ``V`` of the true last next observation at its
+    end (MTBench's ``values[t + 1]`` and ``next_values``)."""
+    trainer = build_trainer(_cfg(tmp_path, "loss.hold_observation=true", "loss.gamma=0.9"), env=_env())
+    assert trainer.rollout.hold_keys == ["observation", "task_id"]
+    trainer.policy[-1].eps.fill_(0.0)  # greedy (collect() without the trainer's hooks keeps it there)
+    first = trainer.rollout.collect().clone()
+    second = trainer.rollout.collect().clone()
+    obs, nxt = first["observation"], first["next", "observation"]
+    done, truncated = first["next", "done"][..., 0], first["next", "truncated"][..., 0]
+    assert done[:, :-1].any(-1).all()  # every world ends an episode inside the window (6-step episodes, T = 8)
+    assert torch.equal(obs, obs[:, :1].expand_as(obs))  # o_0 at every step
+    assert not torch.equal(nxt[:, 0], obs[:, 0])  # the true next observations
+    keep = ~done[:, -1]
+    assert torch.equal(second["observation"][keep, 0], nxt[keep, -1])  # the carry kept the true observation
+    q = trainer.policy[0]
+    with torch.no_grad():
+        values0 = q(first[:, 0].select("observation", "task_id").clone())["action_value"]
+        last = first[:, -1].select("task_id").clone().set("observation", nxt[:, -1].nan_to_num())
+        value_last = greedy_value(q(last)["action_value"])
+    assert torch.equal(first["action"], values0.argmax(-1)[:, None].expand_as(first["action"]))  # held greedy action
+    v0 = greedy_value(values0)[:, None].expand_as(done)
+    boot_next = torch.cat([v0[:, 1:], value_last[:, None]], 1)
+    expected = _hand_peng_q_lambda(first["next", "reward"][..., 0], boot_next, v0, done, truncated, 0.9, 0.5)
+    torch.testing.assert_close(trainer.advantage(first)["value_target"][..., 0], expected)
+
+
+def test_per_step_observation_is_the_default(tmp_path: Path) -> None:
+    """Without ``hold_observation`` every step acts on, and stores, its own observation, and the targets bootstrap
+    ``V(s_{t+1})``."""
+    trainer = build_trainer(_cfg(tmp_path, "loss.gamma=0.9"), env=_env())
+    assert trainer.rollout.hold_keys == []
+    trainer.policy[-1].eps.fill_(0.0)
+    first = trainer.rollout.collect().clone()
+    obs, nxt = first["observation"], first["next", "observation"]
+    done, truncated = first["next", "done"][..., 0], first["next", "truncated"][..., 0]
+    assert torch.equal(obs[:, 1:][~done[:, :-1]], nxt[:, :-1][~done[:, :-1]])
+    q = trainer.policy[0]
+    with torch.no_grad():
+        values = q(first.select("observation", "task_id").clone())["action_value"]
+        last = first[:, -1].select("task_id").clone().set("observation", nxt[:, -1].nan_to_num())
+        value_last = greedy_value(q(last)["action_value"])
+    assert torch.equal(first["action"], values.argmax(-1))
+    v = greedy_value(values)
+    boot_next = torch.cat([v[:, 1:], value_last[:, None]], 1)
+    expected = _hand_peng_q_lambda(first["next", "reward"][..., 0], boot_next, v, done, truncated, 0.9, 0.5)
+    torch.testing.assert_close(trainer.advantage(first)["value_target"][..., 0], expected)
+
+
 class StopAt(TrainerHook):
     """Sends this process SIGINT after env step ``step`` of iteration ``iteration + 1``."""
 
@@ -449,22 +566,29 @@ class StopAt(TrainerHook):
             os.kill(os.getpid(), signal.SIGINT)
 
 
-def test_resume_is_exact_between_iterations_and_inside_a_rollout(tmp_path: Path) -> None:
-    full = build_trainer(_cfg(tmp_path, "checkpoint.every=2", f"checkpoint.dir={tmp_path / 'full'}"), env=_env())
-    full_history = full.train()
-    resumed = build_trainer(_cfg(tmp_path, f"resume={tmp_path / 'full' / 'ckpt_000002.pt'}"), env=_env())
-    assert resumed.get_hook(EpsilonSchedule).epsilon == full_history[1]["train/epsilon"]
-    for a, b in zip(full_history[2:], resumed.train(), strict=True):
-        assert_same_metrics(a, b)
-    for (name, p), q in zip(full.loss.named_parameters(), resumed.loss.parameters(), strict=True):
-        assert torch.equal(p, q), name
-    assert torch.equal(full.optimizer.param_groups[0]["lr"], resumed.optimizer.param_groups[0]["lr"])
+@pytest.mark.parametrize("mtbench", [(), ("loss.hold_observation=true", "loss.epsilon_clock=mtbench")])
+def test_resume_is_exact_between_iterations_and_inside_a_rollout(tmp_path: Path, mtbench: tuple[str, ...]) -> None:
+    """Also with MTBench's held observation (restored from the interrupted rollout's first step) and epsilon clock
+    (inside a rollout only: the part the held observation changes)."""
+    def cfg(*overrides: str):
+        return _cfg(tmp_path, *mtbench, *overrides)
 
-    stopped = build_trainer(_cfg(tmp_path, f"checkpoint.dir={tmp_path / 'stop'}"), env=_env())
+    full = build_trainer(cfg("checkpoint.every=2", f"checkpoint.dir={tmp_path / 'full'}"), env=_env())
+    full_history = full.train()
+    if not mtbench:
+        resumed = build_trainer(cfg(f"resume={tmp_path / 'full' / 'ckpt_000002.pt'}"), env=_env())
+        assert resumed.get_hook(EpsilonSchedule).epsilon == full_history[1]["train/epsilon"]
+        for a, b in zip(full_history[2:], resumed.train(), strict=True):
+            assert_same_metrics(a, b)
+        for (name, p), q in zip(full.loss.named_parameters(), resumed.loss.parameters(), strict=True):
+            assert torch.equal(p, q), name
+        assert torch.equal(full.optimizer.param_groups[0]["lr"], resumed.optimizer.param_groups[0]["lr"])
+
+    stopped = build_trainer(cfg(f"checkpoint.dir={tmp_path / 'stop'}"), env=_env())
     stopped.add_hook(StopAt(iteration=1, step=3))
     assert len(stopped.train()) == 1 and stopped.rollout.steps_done == 3
     ckpt = tmp_path / "stop" / "ckpt_000001_step0003.pt"
-    rest = build_trainer(_cfg(tmp_path, f"resume={ckpt}", f"checkpoint.dir={tmp_path / 'stop2'}"), env=_env()).train()
+    rest = build_trainer(cfg(f"resume={ckpt}", f"checkpoint.dir={tmp_path / 'stop2'}"), env=_env()).train()
     for a, b in zip(full_history[1:], rest, strict=True):
         assert_same_metrics(a, b)
 
@@ -615,6 +739,8 @@ def test_cudagraph_update_resolves_for_pqn(tmp_path: Path) -> None:
         ("loss.end_epsilon=0.5", "loss.end_epsilon=0.5 must be <= loss.start_epsilon=0.4"),
         ("loss.exploration_fraction=0", r"loss.exploration_fraction must be a number in \(0.0, 1.0\]"),
         ("loss.anneal_lr=maybe", "loss.anneal_lr must be true or false"),
+        ("loss.epsilon_clock=steps", r"unknown loss.epsilon_clock 'steps'; valid choices: \['frames', 'mtbench'\]"),
+        ("loss.hold_observation=maybe", "loss.hold_observation must be true or false"),
         ("loss.loss_function=huber", r"unknown loss.loss_function 'huber'; valid choices: \['l2', 'l1', 'smooth_l1"),
         ("loss.name=dqn", r"unknown loss.name 'dqn'; valid choices: \[.*'pqn'.*\]"),
         ("cudagraph_update=true", r"cudagraph_update=true needs a CUDA device \(device=cpu\)"),

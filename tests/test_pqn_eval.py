@@ -130,6 +130,35 @@ def test_sampled_eval_is_epsilon_greedy_per_world(run) -> None:
     assert torch.allclose(counts / counts.sum(), torch.full((3,), 1 / 3), atol=0.02)
 
 
+def test_a_hold_observation_run_holds_the_greedy_action_for_horizon_steps(run) -> None:
+    """``loss.hold_observation`` (MTBench's rollouts): the evaluation policy acts as the run's rollouts did, the
+    greedy action of every ``loss.horizon``-th call's observation kept in between, and a new hold after ``reset()``
+    (which run_episodes calls after every env reset); exploration still draws at every call."""
+    trainer, path = run
+    state = read_checkpoint(path)
+    spec_env = _spec_env(Categorical(3, shape=(NUM_ENVS, 4)))
+    assert load_policy(state, spec_env, torch.device("cpu")).hold_steps == 1  # the run's per-step observations
+    loss = {**state["config"]["loss"], "hold_observation": True, "horizon": 3}
+    policy = load_policy({**state, "config": {**state["config"], "loss": loss}}, spec_env, torch.device("cpu"))
+    assert policy.hold_steps == 3
+    tds = [_observations(seed) for seed in range(8)]
+    greedy = [_trained_greedy_bins(trainer, td) for td in tds]
+    assert not torch.equal(greedy[0], greedy[1])  # the observations call for different actions
+    acted = [policy(td, deterministic=True) for td in tds[:5]]
+    for i, action in enumerate(acted):
+        assert torch.equal(action, greedy[0 if i < 3 else 3]), i
+    policy.reset()
+    assert torch.equal(policy(tds[6], deterministic=True), greedy[6])
+    assert torch.equal(policy(tds[7], deterministic=True), greedy[6])
+    policy.reset()
+    policy.epsilon = 1.0
+    torch.manual_seed(0)
+    sampled = torch.stack([policy(tds[i % 2], deterministic=False) for i in range(3)])
+    assert not torch.equal(sampled[1], sampled[2])  # a fresh draw at every call
+    with pytest.raises(ValueError, match="hold_steps must be an integer >= 1"):
+        EvalQPolicy(policy.q_network, None, 3, 0.0, hold_steps=0)
+
+
 def test_eval_entry_points_run_a_pqn_checkpoint(run, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     _, path = run
     out = tmp_path / "main"

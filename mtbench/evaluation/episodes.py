@@ -90,7 +90,9 @@ def run_episodes(
     passes repeat until every task has ``episodes`` episodes (tasks with more worlds finish more). The env's
     reset sampler and torch's generator are seeded with ``seed`` first, so two evaluations with the same seed
     see the same initial worlds. ``on_step(pass, t)`` is called before the action of step ``t`` (e.g. to render
-    the current state). The statistics stay on the device until the end (one host copy).
+    the current state). A policy with a ``reset()`` method (a stateful one, e.g. an MT-PQN policy that holds its
+    action for ``loss.horizon`` steps) is reset after every env reset. The statistics stay on the device until the
+    end (one host copy).
     """
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
@@ -104,6 +106,9 @@ def run_episodes(
     for p in range(passes_needed(env, episodes)):
         td = env.reset()
         env.pop_episode_stats()  # nothing from before this pass
+        reset_policy = getattr(policy, "reset", None)
+        if callable(reset_policy):  # a stateful policy (e.g. a PQN policy holding its action) starts afresh
+            reset_policy()
         for t in range(steps):
             if on_step is not None:
                 on_step(p, t)

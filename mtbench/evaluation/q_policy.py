@@ -24,25 +24,43 @@ class EvalQPolicy(nn.Module):
     """``forward(td, deterministic)``: the greedy bang-off-bang action of the Q network (``deterministic=True``) or
     the epsilon-greedy one with the run's final rate ``epsilon`` (one draw per world, as in training). Returns the
     bins, or with ``values`` (``[A, bins]``: the continuous value of every bin) their values for a continuous-action
-    env. The input tensordict is not modified."""
+    env. The input tensordict is not modified.
+
+    ``hold_steps`` > 1 (a run with ``loss.hold_observation``: ``loss.horizon``) acts as that run's rollouts did: the
+    greedy action is computed from the observation of every ``hold_steps``-th call (the first after :meth:`reset`)
+    and kept for the calls in between; epsilon-greedy exploration still draws at every call."""
 
     def __init__(self, q_network: nn.Module, obs_norm: PerTaskObservationNorm | None, bins: int, epsilon: float,
-                 values: torch.Tensor | None = None) -> None:
+                 values: torch.Tensor | None = None, hold_steps: int = 1) -> None:
         super().__init__()
+        if not (isinstance(hold_steps, int) and hold_steps >= 1):
+            raise ValueError(f"hold_steps must be an integer >= 1; got {hold_steps!r}")
         self.q_network = q_network
         self.obs_norm = obs_norm
         if obs_norm is not None:
             obs_norm.freeze()
         self.bins = int(bins)
         self.epsilon = float(epsilon)
+        self.hold_steps = hold_steps
         self.values: torch.Tensor | None
         self.register_buffer("values", values)
+        self._calls = 0
+        self._greedy: torch.Tensor | None = None
         self.eval()
+
+    def reset(self) -> None:
+        """Start a new hold at the next call (:func:`~mtbench.evaluation.episodes.run_episodes` calls it after every
+        env reset)."""
+        self._calls = 0
+        self._greedy = None
 
     @torch.no_grad()
     def forward(self, td: TensorDictBase, deterministic: bool = False) -> torch.Tensor:
-        inp = normalized_input(td, self.obs_norm)
-        action = self.q_network(inp).get("action_value").argmax(-1)
+        if self._greedy is None or self._calls % self.hold_steps == 0:
+            inp = normalized_input(td, self.obs_norm)
+            self._greedy = self.q_network(inp).get("action_value").argmax(-1)
+        self._calls += 1
+        action = self._greedy
         if not deterministic:
             explore = torch.rand(action.shape[:-1], device=action.device) < self.epsilon
             random = torch.randint(0, self.bins, action.shape, device=action.device)
@@ -94,7 +112,8 @@ def load_q_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> E
         action_dim = int(spec.shape[-1])
         low, high = spec.low.reshape(-1, action_dim)[0, :, None], spec.high.reshape(-1, action_dim)[0, :, None]
         values = low + (high - low) * bin_values(bins, 0.0, 1.0).to(low)
-    policy = EvalQPolicy(q_network, obs_norm, bins, float(cfg.loss.end_epsilon), values)
+    hold_steps = int(cfg.loss.horizon) if cfg.loss.get("hold_observation", False) else 1
+    policy = EvalQPolicy(q_network, obs_norm, bins, float(cfg.loss.end_epsilon), values, hold_steps)
     return policy.to(device)
 
 

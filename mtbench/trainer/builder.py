@@ -28,7 +28,7 @@ from .config import (
 from .env_factory import make_env_from_cfg, network_sizes
 from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, ProgressHook, TrainerHook
 from .loop import TrainingLoop
-from .pqn import build_pqn_loss, build_radam, discrete_action_env, make_pqn_policy, pqn_hooks
+from .pqn import build_pqn_loss, build_radam, discrete_action_env, make_pqn_policy, pqn_hold_keys, pqn_hooks
 from .pretraining import load_pretrained
 from .rollout import base_env
 from .sac_builder import build_sac_trainer
@@ -257,6 +257,7 @@ def build_trainer(
         success_window=int(cfg.get("success_window", 5)),
         cudagraph_policy=bool(cfg.get("cudagraphs", False)),
         cudagraph_update=graph_update,
+        hold_keys=pqn_hold_keys(cfg.loss, actor) if cfg.loss.name == "pqn" else (),
         config=cfg,
     )
     if resumed is not None:

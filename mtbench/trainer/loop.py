@@ -11,6 +11,7 @@ from typing import Any, Sequence, TypeVar
 import torch
 from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
+from tensordict.utils import NestedKey
 from torch import nn
 from torchrl.envs import EnvBase, TransformedEnv
 
@@ -81,6 +82,7 @@ class TrainingLoop:
         hooks: Sequence[TrainerHook] = (),
         success_window: int = 5,
         cudagraph_policy: bool = False,
+        hold_keys: Sequence[NestedKey] = (),
         config: DictConfig | None = None,
     ) -> None:
         self.env = env
@@ -95,7 +97,7 @@ class TrainingLoop:
         self.update_module = update_module if update_module is not None else loss
         self.optimizer = optimizer
         self.config = config
-        self.rollout = Rollout(env, policy, horizon, cudagraph_policy=cudagraph_policy)
+        self.rollout = Rollout(env, policy, horizon, cudagraph_policy=cudagraph_policy, hold_keys=hold_keys)
         self.horizon = self.rollout.horizon
         self.num_envs = self.rollout.num_envs
         self.frames_per_batch = self.num_envs * self.horizon

@@ -10,6 +10,7 @@ from typing import Any, Mapping
 import torch
 from omegaconf import DictConfig
 from tensordict.nn import TensorDictModule, TensorDictSequential
+from tensordict.utils import NestedKey
 from torchrl.data import Bounded, Categorical, MultiCategorical
 from torchrl.envs import EnvBase, TransformedEnv
 
@@ -19,6 +20,7 @@ from ..objectives.pqn import LOSS_FUNCTIONS, MTPQNLoss
 from .actor_critic import resolve_arch
 from .env_factory import network_sizes
 from .hooks import EpsilonSchedule, LinearLRDecay, TrainerHook
+from .hooks.schedules import EPSILON_CLOCKS
 from .rollout import base_env
 from .skip_found_inf import RAdam
 
@@ -46,6 +48,11 @@ def check_pqn_config(lc: Mapping[str, Any]) -> None:
     if end > start:
         raise ValueError(f"loss.end_epsilon={end} must be <= loss.start_epsilon={start}")
     _number(lc, "exploration_fraction", 0.0, 1.0, low_open=True)
+    if lc.get("epsilon_clock", "frames") not in EPSILON_CLOCKS:
+        raise ValueError(f"unknown loss.epsilon_clock {lc.get('epsilon_clock')!r}; valid choices: "
+                         f"{list(EPSILON_CLOCKS)}")
+    if not isinstance(lc.get("hold_observation", False), bool):
+        raise ValueError(f"loss.hold_observation must be true or false; got {lc.get('hold_observation')!r}")
     if not isinstance(lc.get("anneal_lr"), bool):
         raise ValueError(f"loss.anneal_lr must be true or false; got {lc.get('anneal_lr')!r}")
     if lc.get("loss_function") not in LOSS_FUNCTIONS:
@@ -105,14 +112,22 @@ def build_radam(loss: MTPQNLoss, loss_cfg: Mapping[str, Any], device: torch.devi
     return RAdam(params, lr=lr, betas=(0.9, 0.999), eps=1e-8, capturable=device.type == "cuda")
 
 
+def pqn_hold_keys(loss_cfg: Mapping[str, Any], policy: TensorDictSequential) -> list[NestedKey]:
+    """The rollout entries held at their first-step value (``loss.hold_observation``: the Q network's inputs, as
+    MTBench's rollout loop, which acts on and stores the rollout's first observation at every step), else none."""
+    return list(q_network(policy).in_keys) if loss_cfg.get("hold_observation", False) else []
+
+
 def pqn_hooks(loss_cfg: Mapping[str, Any]) -> list[TrainerHook]:
-    """The epsilon schedule and, with ``loss.anneal_lr``, the linear learning-rate decay."""
+    """The epsilon schedule (``loss.epsilon_clock``) and, with ``loss.anneal_lr``, the linear learning-rate
+    decay."""
     hooks: list[TrainerHook] = [EpsilonSchedule(float(loss_cfg["start_epsilon"]), float(loss_cfg["end_epsilon"]),
-                                                float(loss_cfg["exploration_fraction"]))]
+                                                float(loss_cfg["exploration_fraction"]),
+                                                str(loss_cfg.get("epsilon_clock", "frames")))]
     if loss_cfg.get("anneal_lr", True):
         hooks.append(LinearLRDecay(float(loss_cfg["lr"])))
     return hooks
 
 
 __all__ = ["build_pqn_loss", "build_radam", "check_pqn_config", "discrete_action_env", "make_pqn_policy",
-           "pqn_hooks", "q_network"]
+           "pqn_hold_keys", "pqn_hooks", "q_network"]

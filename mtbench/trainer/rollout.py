@@ -3,11 +3,12 @@ TensorDict, with the carried state exposed for exact checkpoints."""
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import CudaGraphModule
+from tensordict.utils import NestedKey
 from torchrl.envs import EnvBase, TransformedEnv
 
 StepCallback = Callable[[int, int], None]
@@ -46,6 +47,11 @@ class Rollout:
         horizon: env steps per rollout (T).
         cudagraph_policy: replay the policy from a CUDA graph (``tensordict.nn.CudaGraphModule``, as TorchRL's
             ``Collector(cudagraph_policy=...)``); ``True`` or the module's keyword arguments. CUDA only.
+        hold_keys: root entries (e.g. ``"observation"``) that keep, at every step of a rollout, the value they had
+            at its first step: the policy acts on them and the rollout stores them (MTBench's MT-PQN, whose rollout
+            loop never refreshes its observation: ``loss.hold_observation``). The env is unaffected: the carried
+            state and the ``("next", ...)`` entries keep the true observations, so the next rollout starts from
+            the true current one. Held across episode ends inside the rollout, as MTBench. ``()``: none.
     """
 
     def __init__(
@@ -55,6 +61,7 @@ class Rollout:
         horizon: int,
         *,
         cudagraph_policy: bool | dict[str, Any] = False,
+        hold_keys: Sequence[NestedKey] = (),
     ) -> None:
         if int(horizon) < 1:
             raise ValueError(f"horizon must be >= 1, got {horizon}")
@@ -72,6 +79,7 @@ class Rollout:
                 raise ValueError("cudagraph_policy needs a CUDA env device")
             options = {"warmup": 10, **(cudagraph_policy if isinstance(cudagraph_policy, dict) else {})}
             self.policy = CudaGraphModule(policy, in_keys=[], out_keys=[], device=env.device, **options)
+        self.hold_keys = list(hold_keys)
         self._carry: TensorDictBase | None = None
         self._steps: list[TensorDictBase] = []
         self._buffer: TensorDictBase | None = None
@@ -107,7 +115,11 @@ class Rollout:
         """
         td = self._carry if self._carry is not None else self.env.reset()
         steps = self._steps
+        # the held entries: those of the rollout's first step (an interrupted rollout stored them at its step 0)
+        held = (steps[0] if steps else td).select(*self.hold_keys).clone() if self.hold_keys else None
         while len(steps) < self.horizon:
+            if held is not None:
+                td = td.clone(False).update(held)  # a shallow copy: the carried state keeps the true entries
             td = self._act(td)
             td, td_next = self.env.step_and_maybe_reset(td)
             steps.append(td)

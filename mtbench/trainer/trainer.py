@@ -8,6 +8,7 @@ from typing import Sequence
 import torch
 from omegaconf import DictConfig
 from tensordict import TensorDictBase
+from tensordict.utils import NestedKey
 from torch import nn
 from torchrl.envs import EnvBase
 from torchrl.objectives import LossModule
@@ -56,6 +57,8 @@ class Trainer(TrainingLoop):
         success_window: iterations pooled for the per-task success rate.
         cudagraph_policy: replay the policy from a CUDA graph during the rollout.
         cudagraph_update: replay each minibatch update from a CUDA graph.
+        hold_keys: root entries that keep their first-step value for the whole rollout (MT-PQN's
+            ``loss.hold_observation``; :class:`~mtbench.trainer.rollout.Rollout`).
         config: the run's config (recorded in checkpoints and logs; checked on resume).
     """
 
@@ -76,12 +79,13 @@ class Trainer(TrainingLoop):
         success_window: int = 5,
         cudagraph_policy: bool = False,
         cudagraph_update: bool = False,
+        hold_keys: Sequence[NestedKey] = (),
         config: DictConfig | None = None,
     ) -> None:
         super().__init__(
             env, policy, loss, optimizer, horizon=horizon, total_iterations=total_iterations,
             update_module=update_module, hooks=hooks, success_window=success_window,
-            cudagraph_policy=cudagraph_policy, config=config,
+            cudagraph_policy=cudagraph_policy, hold_keys=hold_keys, config=config,
         )
         if int(epochs) < 1:
             raise ValueError(f"loss.epochs must be >= 1, got {epochs}")

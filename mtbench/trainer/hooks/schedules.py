@@ -9,6 +9,9 @@ from torchrl.modules import EGreedyModule
 
 from .base import TrainerHook
 
+#: what :class:`EpsilonSchedule`'s rate is a function of: the frames collected, or MTBench's step counter
+EPSILON_CLOCKS = ("frames", "mtbench")
+
 
 def linear_epsilon(frames: int | float, start: float, end: float, anneal_frames: float) -> float:
     """``max(end, start + (end - start) * frames / anneal_frames)`` (CleanRL / MTBench ``linear_schedule``)."""
@@ -21,31 +24,42 @@ class EpsilonSchedule(TrainerHook):
     """Anneal the ``eps`` of the policy's ``EGreedyModule`` linearly from ``start`` to ``end`` over
     ``fraction`` of the run's frames, then hold ``end`` (MTBench PQN: 1 -> 0.005 over 0.5% of training).
 
-    The rate of each env step is set before the step from the frames collected before it (``trainer.frames +
-    num_envs * steps done in the rollout``), in place on the module's ``eps`` buffer (no host sync; a CUDA-graphed
-    policy sees it). The schedule is a function of the frame counter, so a resumed run (between iterations or
-    in the middle of a rollout) continues it exactly; the hook's state holds its parameters and the current rate.
+    The rate of each env step is set before the step from the schedule's ``clock`` (by default the frames collected
+    before it, ``trainer.frames + num_envs * steps done in the rollout``), in place on the module's ``eps`` buffer
+    (no host sync; a CUDA-graphed policy sees it). The schedule is a function of the trainer's counters, so a
+    resumed run (between iterations or in the middle of a rollout) continues it exactly; the hook's state holds its
+    parameters and the current rate.
     Logs ``train/epsilon`` (the rate of the iteration's last env step).
 
-    MTBench's ``pqn_agent.py`` computes ``t = (epoch - 1) * num_envs + num_envs * (step + 1)``, i.e. it counts one
-    env step per iteration (not ``horizon``) plus the steps of the current rollout: its epsilon restarts slightly
-    higher at every iteration and reaches ``end`` after ``fraction * iterations * horizon`` iterations (16 times
-    later than 0.5% of training for horizon 16). This hook follows the paper's description.
+    ``clock`` says what the rate is a function of:
+
+    * ``"frames"`` (default, the paper's description): the frames collected before the step, ``num_envs * (horizon
+      * iteration + step)``; the rate reaches ``end`` after ``fraction`` of the run's frames;
+    * ``"mtbench"`` (MTBench's ``pqn_agent.py``, which produced the paper's curves): ``t = (epoch - 1) * num_envs +
+      num_envs * (step + 1)`` = ``num_envs * (iteration + step + 1)``, i.e. one env step counted per iteration (not
+      ``horizon``) plus the steps of the current rollout, against the same ``fraction * iterations * num_envs *
+      horizon``: the rate restarts slightly higher at every iteration and reaches ``end`` after ``fraction *
+      iterations * horizon`` iterations, ``horizon`` times later (16 x: after 8% of the paper's 50,000 iterations,
+      524 M frames, instead of 0.5%, 33 M frames).
 
     Args:
         start, end: initial and final rate (``0 <= end <= start <= 1``).
         fraction: fraction of the run's frames over which the rate is annealed (in ``(0, 1]``).
+        clock: ``"frames"`` or ``"mtbench"`` (:data:`EPSILON_CLOCKS`).
     """
 
     name = "epsilon_schedule"
 
-    def __init__(self, start: float = 1.0, end: float = 0.005, fraction: float = 0.005) -> None:
+    def __init__(self, start: float = 1.0, end: float = 0.005, fraction: float = 0.005, clock: str = "frames") -> None:
+        if clock not in EPSILON_CLOCKS:
+            raise ValueError(f"unknown epsilon clock {clock!r}; valid choices: {list(EPSILON_CLOCKS)}")
         if not 0.0 <= end <= start <= 1.0:
             raise ValueError(f"epsilon must satisfy 0 <= end_epsilon <= start_epsilon <= 1; got start={start}, "
                              f"end={end}")
         if not 0.0 < fraction <= 1.0:
             raise ValueError(f"exploration_fraction must be in (0, 1]; got {fraction}")
         self.start, self.end, self.fraction = float(start), float(end), float(fraction)
+        self.clock = clock
         self.epsilon = self.start
 
     @staticmethod
@@ -60,8 +74,14 @@ class EpsilonSchedule(TrainerHook):
     def anneal_frames(self, trainer: Any) -> float:
         return self.fraction * trainer.total_iterations * trainer.frames_per_batch
 
+    def clock_frames(self, trainer: Any, steps_done: int) -> int:
+        """The schedule's position before env step ``steps_done`` of the current rollout (see ``clock``)."""
+        if self.clock == "mtbench":
+            return trainer.num_envs * (trainer.iteration + steps_done + 1)
+        return trainer.frames + trainer.num_envs * steps_done
+
     def _set(self, trainer: Any, steps_done: int) -> None:
-        frames = trainer.frames + trainer.num_envs * steps_done
+        frames = self.clock_frames(trainer, steps_done)
         self.epsilon = linear_epsilon(frames, self.start, self.end, self.anneal_frames(trainer))
         for module in self.modules(trainer):
             module.eps.fill_(self.epsilon)
@@ -80,11 +100,13 @@ class EpsilonSchedule(TrainerHook):
         metrics["train/epsilon"] = self.epsilon
 
     def state_dict(self) -> dict[str, Any]:
-        return {"start": self.start, "end": self.end, "fraction": self.fraction, "epsilon": self.epsilon}
+        return {"start": self.start, "end": self.end, "fraction": self.fraction, "clock": self.clock,
+                "epsilon": self.epsilon}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.start, self.end = float(state["start"]), float(state["end"])
         self.fraction, self.epsilon = float(state["fraction"]), float(state["epsilon"])
+        self.clock = str(state.get("clock", "frames"))  # checkpoints from before the option: the frames clock
 
 
 class LinearLRDecay(TrainerHook):
@@ -120,4 +142,4 @@ class LinearLRDecay(TrainerHook):
         self.lr = float(state["lr"])
 
 
-__all__ = ["EpsilonSchedule", "LinearLRDecay", "linear_epsilon"]
+__all__ = ["EPSILON_CLOCKS", "EpsilonSchedule", "LinearLRDecay", "linear_epsilon"]
