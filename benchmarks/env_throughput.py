@@ -18,6 +18,11 @@ place on their tiles, fall, time out and reset as in training. ``--terrain-colli
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 4096 --device cuda
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 --policy scripted
     python benchmarks/env_throughput.py --env parkour_hard --num-envs 16384
+    python benchmarks/env_throughput.py --env mt50_rand --num-envs 24576 --compile-stages --phases
+
+``--compile-stages`` compiles the Meta-World env's torch stages (``compile_stages=True``; the compile time is
+reported as "first step s"); ``--phases`` also times each part of a Meta-World step on its own (synchronised
+before and after: the torch stages and the physics launches of every block), to show where a step's time goes.
 """
 
 from __future__ import annotations
@@ -97,11 +102,34 @@ def run_timed(env, steps: int, warmup: int, policy: str = "random") -> tuple[flo
     return elapsed, steps, _contacts_per_world(env), env.pop_episode_stats()
 
 
+def phase_times(env, steps: int) -> dict[str, float]:
+    """Milliseconds per step of each part of a Meta-World env step (``MetaWorldEnv._core_step``'s sequence), each
+    synchronised before and after, over ``steps`` steps of random actions (after the stages are captured)."""
+    from mtbench.sim import launch_all
+
+    act, evaluate, place, finish = env._stages
+    parts = {"torch: action": act, "physics: step": lambda: launch_all(env._sims, "step"),
+             "torch: evaluate": evaluate, "physics: reset": lambda: launch_all(env._sims, "reset"),
+             "torch: place objects": place, "physics: kinematics": lambda: launch_all(env._sims, "kin"),
+             "torch: finish": finish}
+    totals = dict.fromkeys(parts, 0.0)
+    gen = torch.Generator(device=env.device).manual_seed(1)
+    for _ in range(steps):
+        env._action_in.copy_(torch.rand(env._action_in.shape, generator=gen, device=env.device) * 2 - 1)
+        for name, part in parts.items():
+            sync(env.device)
+            t0 = time.perf_counter()
+            part()
+            sync(env.device)
+            totals[name] += time.perf_counter() - t0
+    return {name: 1e3 * t / steps for name, t in totals.items()}
+
+
 def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, substeps: int | None,
             parallel_streams: bool = True, torch_graphs: bool = True, policy: str = "random",
             robot_collision: str = "primitive", box_box: str = "primitive",
             terrain_collision: str = parkour_robot.DEFAULT_TERRAIN_COLLISION, terrain_representation: str = "grid",
-            num_rows: int = 10) -> dict:
+            num_rows: int = 10, compile_stages: bool = False, phases: bool = False) -> dict:
     parkour = is_parkour(env_name)
     if parkour:
         if policy == "scripted":
@@ -113,7 +141,7 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         if policy in ("trot", "stand"):
             raise ValueError(f"--policy {policy} is for Parkour; Meta-World takes random or scripted")
         overrides = {"parallel_streams": parallel_streams, "torch_graphs": torch_graphs,
-                     "robot_collision": robot_collision, "box_box_collider": box_box}
+                     "robot_collision": robot_collision, "box_box_collider": box_box, "compile_stages": compile_stages}
         collision = f"{robot_collision} hand, {box_box} box-box"
         if substeps is not None:
             overrides["substeps"] = substeps
@@ -122,6 +150,12 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
     t0 = time.perf_counter()
     env = make_env(env_name, num_envs=num_envs, device=device, seed=0, **overrides)
     build_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    td = env.reset()
+    td["action"] = torch.zeros(env.action_spec.shape, device=env.device)
+    env.step_and_maybe_reset(td)
+    sync(env.device)
+    first_step_s = time.perf_counter() - t0
     if policy == "scripted":
         elapsed, steps, contacts, stats = run_scripted(env, warmup)
         success = float((stats["success"] / stats["episodes"].clamp_min(1)).mean())
@@ -129,6 +163,8 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         elapsed, steps, contacts, stats = run_timed(env, steps, warmup, policy)
         success = float("nan")
     mode = "torch stages graphed" if torch_graphs and env.device.type == "cuda" else "torch stages eager"
+    if compile_stages:
+        mode += ", compiled"
     if not parkour:
         mode += ", block streams" if parallel_streams else ", one stream"
     sim_substeps = env.sim.substeps if parkour else env.blocks[0][1].sim.substeps
@@ -146,6 +182,8 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         "collision": collision,
         "contacts_per_world": contacts,
         "success": success,
+        "first_step_s": first_step_s,
+        "phases": phase_times(env, steps) if phases and not parkour else None,
     }
 
 
@@ -170,24 +208,31 @@ def main() -> None:
     parser.add_argument("--terrain-representation", choices=("tiles", "grid"), default="tiles",
                         help="Parkour: one heightfield per tile (default) or one for the whole grid")
     parser.add_argument("--num-rows", type=int, default=10, help="Parkour: difficulty rows of the terrain grid")
+    parser.add_argument("--compile-stages", action="store_true", help="Meta-World: torch.compile the env's torch stages")
+    parser.add_argument("--phases", action="store_true",
+                        help="Meta-World: also time each part of a step on its own (ms per step)")
     args = parser.parse_args()
     if args.policy is None:
         args.policy = "trot" if is_parkour(args.env) else "random"
     name = torch.cuda.get_device_name() if args.device.startswith("cuda") else platform.processor() or "cpu"
     print(f"device: {name}; torch {torch.__version__}; date {time.strftime('%Y-%m-%d')}")
     print("| env | envs | policy | collision | mode | substeps | env steps/s | physics steps/s | ms/step | "
-          "contacts/world | success | build s | unhealthy resets |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "contacts/world | success | build s | first step s | unhealthy resets |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for n in args.num_envs:
         r = measure(args.env, n, args.device, args.steps, args.warmup, args.substeps,
                     parallel_streams=not args.one_stream, torch_graphs=not args.eager_torch, policy=args.policy,
                     robot_collision=args.robot_collision, box_box=args.box_box,
                     terrain_collision=args.terrain_collision, terrain_representation=args.terrain_representation,
-                    num_rows=args.num_rows)
+                    num_rows=args.num_rows, compile_stages=args.compile_stages, phases=args.phases)
         print(f"| {r['env']} | {r['num_envs']} | {r['policy']} | {r['collision']} | {r['mode']} | {r['substeps']} | "
               f"{r['env_steps_per_s']:,.0f} | {r['physics_steps_per_s']:,.0f} | {r['ms_per_step']:.2f} | "
-              f"{r['contacts_per_world']:.2f} | {r['success']:.1%} | {r['build_s']:.1f} | "
+              f"{r['contacts_per_world']:.2f} | {r['success']:.1%} | {r['build_s']:.1f} | {r['first_step_s']:.1f} | "
               f"{r['unhealthy_resets']:.0f} |", flush=True)
+        if r["phases"] is not None:
+            total = sum(r["phases"].values())
+            print("  parts of a step, each synchronised (ms): " + ", ".join(
+                f"{name} {ms:.2f}" for name, ms in r["phases"].items()) + f"; sum {total:.2f}", flush=True)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,11 @@ eager step measures the latter (eager vs eager). Differences are reported separa
 the step and for the others, and per observation field. The check passes when graph vs eager is within 1e-3 (obs)
 / 1e-2 (reward), or within twice eager vs eager for the worlds that did not reset (``graphs_match``). A fourth
 argument ``cpu`` runs the same check on the CPU
-(no graphs of torch work there: graph vs eager is eager vs eager, and must be exactly 0).
+(no graphs of torch work there: graph vs eager is eager vs eager, and must be exactly 0). A fifth argument
+``compile`` builds the Meta-World env with ``compile_stages=True``: the graphs then replay the compiled stages, and
+the eager path runs the original, uncompiled code.
+
+    python benchmarks/gpu_check.py mt50_rand 500 20 cuda compile
 """
 
 from __future__ import annotations
@@ -32,6 +36,8 @@ def main() -> None:
     trials = int(sys.argv[3]) if len(sys.argv) > 3 else 40
     device = sys.argv[4] if len(sys.argv) > 4 else "cuda"
     overrides = {"num_rows": 2} if name.startswith("parkour") else {}  # a small terrain grid is enough here
+    if len(sys.argv) > 5 and sys.argv[5] == "compile":
+        overrides["compile_stages"] = True
     env = make_env(name, num_envs=n, device=device, seed=0, **overrides)
     action_dim = int(env.action_spec.shape[-1])
     check_env_specs(env)
@@ -84,17 +90,29 @@ def graphs_match(graph_vs_eager: "StepDiffs", eager_vs_eager: "StepDiffs", obs_t
 
 
 def _eager_step(env, state: dict, action: torch.Tensor) -> dict[str, torch.Tensor]:
-    """One step from ``state`` with the torch stages run eagerly (the outputs cloned)."""
+    """One step from ``state`` with the torch stages run eagerly, uncompiled (the outputs cloned)."""
     env.set_extra_state(copy.deepcopy(state))
     enabled = [stage.enabled for stage in env._stages]
+    fns = [stage.fn for stage in env._stages]
+    apply = getattr(env, "_apply_reset_samples", None)
     for stage in env._stages:
         stage.enabled = False
+        stage.fn = _uncompiled(stage.fn)
+    if apply is not None:
+        env._apply_reset_samples = _uncompiled(apply)
     try:
         out = env._core_step(action)
         return {k: v.clone() for k, v in out.items() if isinstance(v, torch.Tensor)}
     finally:
-        for stage, was in zip(env._stages, enabled):
-            stage.enabled = was
+        for stage, was, fn in zip(env._stages, enabled, fns):
+            stage.enabled, stage.fn = was, fn
+        if apply is not None:
+            env._apply_reset_samples = apply
+
+
+def _uncompiled(fn):
+    """The function that ``torch.compile`` wrapped (``fn`` itself if it is not compiled)."""
+    return getattr(fn, "_torchdynamo_orig_callable", fn)
 
 
 class StepDiffs:

@@ -102,7 +102,6 @@ def main() -> None:
         t_train = _median_ms(train_step, device, args.warmup, args.repeats)
         t_infer = _median_ms(infer_step, device, args.warmup, args.repeats)
         print(f"| {arch} | {n_params:,} | {t_train:.2f} | {t_infer:.2f} |")
-        del net
         if device.type == "cuda":
             torch.cuda.empty_cache()
 

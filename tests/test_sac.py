@@ -23,6 +23,7 @@ from envs_for_tests import SyntheticMTEnv
 from host_sync import forbid_host_sync
 from mtbench.objectives import MTSACLoss, NStepTransitions, nstep_transitions
 from mtbench.trainer import NonFiniteGuard, OffPolicyTrainer, build_trainer, make_qvalue, make_sac_actor
+from mtbench.trainer.hooks import TrainerHook
 from mtbench.trainer.checkpoint import load_checkpoint
 from mtbench.trainer.replay import load_replay_state_dict, make_replay_buffer, replay_state_dict
 from mtbench.trainer.sac_builder import build_sac_optimizer, check_sac_features
@@ -389,7 +390,7 @@ def test_resume_is_exact_with_the_replay_buffer_and_without_it(tmp_path: Path):
 
 # ---------------------------------------------------------------------------------------------- CUDA-graphed update
 #: buffer of 36 transitions: warm-up iterations 0-3 (12 transitions at 3), eager updates at 4 (24), full from 5 on
-GRAPH_RUN = ("loss.replay_buffer_size=36",)
+GRAPH_RUN = ("loss.replay_buffer_size=36", "loss.overlap_update=false")  # sequential: the eager order
 
 
 def _graphed(trainer: OffPolicyTrainer) -> OffPolicyTrainer:
@@ -484,6 +485,52 @@ def test_graphed_sac_update_path_equals_the_eager_one(tmp_path: Path, grad: tupl
     assert eager.updates == graphed.updates == 2 * 5
 
 
+def test_overlapped_updates_run_before_the_collection_and_it_acts_with_the_pre_update_actor(tmp_path: Path):
+    """``loss.overlap_update``: once the graphed update runs (CPU: its code path; iteration 5 draws the first batch
+    from the full buffer), each iteration launches its updates first, on the buffer of the previous iterations
+    (on a GPU on a side stream, concurrently with the env), then collects with a copy of the actor taken before
+    those updates, then stores the new transitions; before that (warm-up, filling buffer, first graphed
+    iteration) the order is the sequential one. The trained actor is not the acting one."""
+    trainer = _graphed(build_trainer(_cfg(tmp_path, *GRAPH_RUN, "loss.overlap_update=true", "max_iterations=9"),
+                                     env=_env()))
+    assert trainer.overlap_update and trainer.policy.actor is not trainer.actor
+    events: list[tuple[str, int]] = []
+    draw, extend, act = trainer.draw_from_full_replay, trainer.replay.extend, trainer.policy.actor.forward
+    start: dict[str, torch.Tensor] = {}
+
+    def drawn() -> TensorDict:
+        events.append(("update", trainer.iteration))
+        return draw()
+
+    def extended(data: TensorDict) -> None:
+        events.append(("store", trainer.iteration))
+        extend(data)
+
+    def acting(td: TensorDict) -> TensorDict:  # the acting copy holds the parameters of the iteration's start
+        acting_params = dict(trainer.policy.actor.named_parameters())
+        assert all(torch.equal(acting_params[k], v) for k, v in start.items())
+        events.append(("act", trainer.iteration))
+        return act(td)
+
+    class Start(TrainerHook):
+        def on_iteration_start(self, t: OffPolicyTrainer) -> None:
+            start.clear()
+            start.update({k: v.detach().clone() for k, v in t.actor.named_parameters()})
+
+    trainer._draw, trainer.replay.extend, trainer.policy.actor.forward = drawn, extended, acting
+    trainer.add_hook(Start())
+    history = trainer.train()
+    by_iteration = [[e for e, i in events if i == it] for it in range(9)]
+    assert by_iteration[3] == ["store"]  # warm-up: random actions, the actor is not called
+    assert by_iteration[4] == ["act", "store"]  # eager updates on TorchRL's sampler (the buffer fills)
+    assert by_iteration[5] == ["act", "store", "update", "update"]  # first graphed iteration: sequential
+    for it in (6, 7, 8):
+        assert by_iteration[it] == ["update", "update", "act", "store"], it
+    assert trainer.updates == 2 * 5 and [h["train/replay_size"] for h in history][-1] == 36
+    live = dict(trainer.actor.named_parameters())
+    assert not all(torch.equal(live[k], v) for k, v in trainer.policy.actor.named_parameters())  # updated since
+
+
 def test_cudagraph_update_resolves_for_sac():
     """``cudagraph_update`` for ``loss=sac``: ``auto`` and ``true`` on CUDA (graphed once the buffer is full;
     update_check.py --loss sac compared it with the eager update on an H200), clear errors where it is impossible."""
@@ -525,6 +572,7 @@ def test_cudagraph_update_resolves_for_sac():
         ("loss.alpha_loss=exp", r"unknown loss.alpha_loss 'exp'; valid choices: \['alpha', 'log_alpha'\]"),
         ("loss.log_std_bounds=[2,-20]", "loss.log_std_bounds must be \\[min, max\\] with min < max"),
         ("loss.disentangled_alpha=maybe", "loss.disentangled_alpha must be true or false"),
+        ("loss.overlap_update=maybe", "loss.overlap_update must be true or false; got 'maybe'"),
         ("+loss.normalize_value=true", "loss.normalize_value=true is not supported by loss=sac"),
         ("cudagraph_update=true", r"cudagraph_update=true needs a CUDA device \(device=cpu\)"),
         ("compile=true", r"compile=true \(torch.compile of the networks\) is not supported with loss=sac"),

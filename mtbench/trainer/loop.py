@@ -140,9 +140,10 @@ class TrainingLoop:
             getattr(hook, point)(self, *args)
 
     # ------------------------------------------------------------------ pieces of an iteration
-    def collect(self) -> tuple[TensorDictBase | None, TensorDictBase | None]:
-        """The rollout (``None`` if a stop request interrupted it) and the episode statistics finished in it."""
-        stop = self._stop
+    def collect(self, interruptible: bool = True) -> tuple[TensorDictBase | None, TensorDictBase | None]:
+        """The rollout (``None`` if a stop request interrupted it) and the episode statistics finished in it.
+        ``interruptible=False``: a stop request waits for the end of the rollout (checked between iterations)."""
+        stop = self._stop if interruptible else None
         data = self.rollout.collect(
             on_step=lambda step, horizon: self._call("on_rollout_step", step, horizon),
             should_stop=None if stop is None else stop,

@@ -3,6 +3,8 @@ native-autoreset env, with an on-device replay buffer."""
 
 from __future__ import annotations
 
+import contextlib
+import copy
 import math
 import os
 import time
@@ -10,7 +12,7 @@ from typing import Any, Iterator, Mapping, Sequence
 
 import torch
 from omegaconf import DictConfig
-from tensordict import TensorDictBase
+from tensordict import TensorDict, TensorDictBase
 from torch import nn
 from torchrl.envs import EnvBase
 from torchrl.objectives import LossModule
@@ -50,6 +52,17 @@ class OffPolicyTrainer(TrainingLoop):
        drawn on the device, gathered into static buffers, normalised, the step -- is captured once and replayed
        ``gradient_steps`` times per iteration (:meth:`draw_from_full_replay`).
 
+    With ``overlap_update`` (CUDA, once the update is replayed from its graph) steps 4 and 1 overlap: the
+    iteration's updates are launched on a side CUDA stream *before* its collection, on the replay buffer as it
+    stood at the end of the previous iteration, and run on the GPU while the env steps (an env step of a few
+    thousand worlds leaves most of the GPU idle). The collection acts with a copy of the actor taken before the
+    updates start -- the parameters it would have used without the overlap --, the updates normalise with a copy
+    of the observation statistics taken at the same point, and the new transitions enter the buffer after both
+    streams have joined. The only difference from the sequential order: an iteration's updates do not yet sample
+    that iteration's own ``num_envs x horizon`` transitions (they are in the next iteration's). A stop request
+    then waits for the end of the rollout. Elsewhere (warm-up, buffer filling, CPU) the loop runs sequentially
+    with the same copies.
+
     Args:
         env: batched env with the mtbench contract and native autoreset, possibly a ``TransformedEnv``; with a
             ``PerTaskObservationNorm`` transform, the raw observation must also be kept under
@@ -77,6 +90,8 @@ class OffPolicyTrainer(TrainingLoop):
         config: the run's config (recorded in checkpoints and logs; checked on resume).
         cudagraph_update: replay the updates from a CUDA graph once the replay buffer is full (``optimizer`` with
             ``capturable=True``; the CPU runs the same code path eagerly).
+        overlap_update: run the graphed updates concurrently with the next collection (see above); on a CPU the
+            same order runs without concurrency.
     """
 
     resume_keys = (*TrainingLoop.resume_keys, "loss.nstep", "loss.replay_buffer_size")
@@ -106,13 +121,19 @@ class OffPolicyTrainer(TrainingLoop):
         raw_observation_key: str = RAW_OBSERVATION_KEY,
         config: DictConfig | None = None,
         cudagraph_update: bool = False,
+        overlap_update: bool = False,
     ) -> None:
         if not (isinstance(gradient_steps, int) and gradient_steps >= 1):
             raise ValueError(f"loss.gradient_steps_per_iteration must be an integer >= 1; got {gradient_steps!r}")
         if not (isinstance(warmup_steps, int) and warmup_steps >= 0):
             raise ValueError(f"loss.warmup_steps must be an integer >= 0; got {warmup_steps!r}")
+        if not isinstance(overlap_update, bool):
+            raise ValueError(f"loss.overlap_update must be true or false; got {overlap_update!r}")
+        self.overlap_update = overlap_update
+        # with the overlap the collection acts with a copy of the actor, refreshed at the start of every iteration
+        acting_actor = copy.deepcopy(actor).requires_grad_(False) if overlap_update else actor
         super().__init__(
-            env, ExplorationPolicy(actor, env.action_spec), loss, optimizer, horizon=horizon,
+            env, ExplorationPolicy(acting_actor, env.action_spec), loss, optimizer, horizon=horizon,
             total_iterations=total_iterations, update_module=update_module, hooks=hooks,
             success_window=success_window, config=config,
         )
@@ -125,6 +146,15 @@ class OffPolicyTrainer(TrainingLoop):
         if self.norm is not None and raw_observation_key not in env.observation_spec.keys():
             raise ValueError(f"the env normalises 'observation' but keeps no raw copy under {raw_observation_key!r}: "
                              "the replay buffer stores raw observations (use add_observation_norm_keep_raw)")
+        # what the updates normalise replay samples with: the live statistics, or (overlap) a copy of them
+        self._sample_norm = self.norm
+        self._snapshots: list[tuple[TensorDictBase, TensorDictBase]] = []
+        if overlap_update:
+            self._snapshots.append((TensorDict.from_module(acting_actor), TensorDict.from_module(actor)))
+            if self.norm is not None:
+                self._sample_norm = copy.deepcopy(self.norm.stats)
+                self._snapshots.append((TensorDict.from_module(self._sample_norm),
+                                        TensorDict.from_module(self.norm.stats)))
         self._stored_observation_key = raw_observation_key if self.norm is not None else "observation"
         self.nstep = NStepTransitions(nstep, gamma, observation_keys=(self._stored_observation_key,))
         self.warmup_iterations = math.ceil(warmup_steps / self.horizon)
@@ -139,11 +169,13 @@ class OffPolicyTrainer(TrainingLoop):
         self._replay_layout: tuple | None = None
         self._static: TensorDictBase | None = None
         self._draw = self.draw_from_full_replay  # one bound method: MinibatchUpdate.drawn captures per draw
+        self._side = torch.cuda.Stream(device) if overlap_update and device.type == "cuda" else None
 
     def update_summary(self) -> str:
         """What one iteration's update does, for the front door's banner."""
         return (f"{self.gradient_steps} updates of {self.batch_size:,} replayed {self.nstep.n}-step transitions, "
-                f"buffer {self.replay.storage.max_size:,}, {self.warmup_iterations} warm-up iterations")
+                f"buffer {self.replay.storage.max_size:,}, {self.warmup_iterations} warm-up iterations"
+                + (", updates overlapped with the collection" if self.overlap_update else ""))
 
     # ------------------------------------------------------------------ one iteration
     def transitions(self, data: TensorDictBase) -> TensorDictBase | None:
@@ -156,7 +188,7 @@ class OffPolicyTrainer(TrainingLoop):
 
     def sample(self) -> TensorDictBase:
         """A replay batch with its observations normalised by the current per-task statistics."""
-        return normalize_observations(self.replay.sample(), self.norm)
+        return normalize_observations(self.replay.sample(), self._sample_norm)
 
     def replay_full(self) -> bool:
         """Whether the replay buffer holds ``capacity`` transitions (its length stays constant from then on)."""
@@ -187,7 +219,7 @@ class OffPolicyTrainer(TrainingLoop):
                               device=self.replay.storage.device)
         for key, value in self._static.items(True, True):
             torch.index_select(self._replay_source.get(key), 0, index, out=value)
-        return normalize_observations(self._static.clone(False), self.norm)
+        return normalize_observations(self._static.clone(False), self._sample_norm)
 
     def update(self, count: int) -> dict[str, torch.Tensor]:
         """4. ``count`` updates on fresh replay samples; per-update means of the scalar metrics (device tensors).
@@ -201,22 +233,49 @@ class OffPolicyTrainer(TrainingLoop):
         self.updates += done
         return means
 
+    def overlapped(self, learning: bool) -> bool:
+        """Whether this iteration's updates run before (on the GPU: concurrently with) its collection: with
+        ``overlap_update``, once the updates replay their captured graph (the CPU runs that path eagerly)."""
+        return (self.overlap_update and learning and self.updater.graph and self.replay_full()
+                and self.updater.drawn_ready(self._draw))
+
+    def _refresh_snapshots(self) -> None:
+        """Copy the actor into the acting copy and the observation statistics into the updates' copy."""
+        for copy_, live in self._snapshots:
+            copy_.update_(live)
+
+    def _side_stream(self) -> contextlib.AbstractContextManager:
+        """The side stream (ordered after the work queued so far), or nothing on a CPU."""
+        if self._side is None:
+            return contextlib.nullcontext()
+        self._side.wait_stream(torch.cuda.current_stream(self._side.device))
+        return torch.cuda.stream(self._side)
+
     def train_iteration(self) -> dict[str, float] | None:
         """One iteration; returns its metrics (``None``: a stop request interrupted the rollout)."""
         self._call("on_iteration_start")
         learning = self.iteration >= self.warmup_iterations
         self.policy.random = not learning  # warm-up: uniform random actions
         t0 = time.perf_counter()
-        data, stats = self.collect()  # 1. collect
+        overlapped = self.overlapped(learning)
+        self._refresh_snapshots()
+        if overlapped:  # 4. first: the updates on the side stream, on the buffer of the previous iterations
+            self.updates_per_iteration = self.gradient_steps
+            with self._side_stream():
+                means = self.update(self.updates_per_iteration)
+        data, stats = self.collect(interruptible=not overlapped)  # 1. collect
         if data is None or stats is None:
             return None
         env_totals = self._record_episodes(stats)  # device -> host copy: also ends the collection timing on GPU
         t1 = time.perf_counter()
+        if self._side is not None:
+            torch.cuda.current_stream(self._side.device).wait_stream(self._side)  # the updates are done
         transitions = self.transitions(data)  # 2. n-step transitions
         if transitions is not None:
             self.replay.extend(transitions)  # 3. into the buffer
-        self.updates_per_iteration = self.gradient_steps if learning and len(self.replay) else 0
-        means = self.update(self.updates_per_iteration)  # 4. updates
+        if not overlapped:
+            self.updates_per_iteration = self.gradient_steps if learning and len(self.replay) else 0
+            means = self.update(self.updates_per_iteration)  # 4. updates
         alphas = getattr(self.loss, "alphas", None)  # per-task temperatures (MT-SAC), logged per task
         per_task = alphas is not None and alphas.numel() == self.num_tasks
         names = list(means)

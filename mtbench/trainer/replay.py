@@ -11,7 +11,7 @@ from tensordict import TensorDictBase
 from tensordict.utils import NestedKey
 from torchrl.data import LazyTensorStorage, RandomSampler, ReplayBuffer
 
-from ..transforms import PerTaskObservationNorm
+from ..transforms import PerTaskObservationNorm, PerTaskRunningMeanStd
 
 
 def make_replay_buffer(capacity: int, batch_size: int, device: torch.device | str) -> ReplayBuffer:
@@ -52,7 +52,7 @@ def load_replay_state_dict(buffer: ReplayBuffer, state: dict[str, Any], device: 
 
 def normalize_observations(
     batch: TensorDictBase,
-    norm: PerTaskObservationNorm | None,
+    norm: PerTaskObservationNorm | PerTaskRunningMeanStd | None,
     *,
     observation_key: NestedKey = "observation",
     task_id_key: NestedKey = "task_id",
@@ -60,14 +60,15 @@ def normalize_observations(
     """Normalise ``observation`` and ``("next", observation)`` of replay samples in place with the current
     per-task statistics of ``norm`` (not updated: the env transform updates them during collection). The buffer
     keeps raw observations, so every sample is normalised with the latest statistics (MTBench normalises replay
-    samples at update time too)."""
+    samples at update time too). ``norm`` may also be the statistics themselves (e.g. a snapshot of them)."""
     if norm is None:
         return batch
+    stats = norm.stats if isinstance(norm, PerTaskObservationNorm) else norm
     task_id = batch.get(task_id_key).reshape(batch.batch_size)
-    s = norm.state_dim
+    s = stats.dim
     for key in (observation_key, ("next", observation_key)):
         obs = batch.get(key)
-        batch.set(key, torch.cat([norm.stats.normalize(obs[..., :s], task_id), obs[..., s:]], dim=-1))
+        batch.set(key, torch.cat([stats.normalize(obs[..., :s], task_id), obs[..., s:]], dim=-1))
     return batch
 
 

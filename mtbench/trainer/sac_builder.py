@@ -153,6 +153,7 @@ def build_sac_trainer(
         replay_in_checkpoint=bool(lc.get("replay_in_checkpoint", True)),
         config=cfg,
         cudagraph_update=graph_update,
+        overlap_update=lc.get("overlap_update", False),
     )
 
 

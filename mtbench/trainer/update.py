@@ -194,6 +194,11 @@ class MinibatchUpdate:
         assert total is not None and self.metric_keys is not None
         return self._means(total, count), count
 
+    def drawn_ready(self, draw: Callable[[], TensorDictBase]) -> bool:
+        """Whether :meth:`drawn` with ``draw`` replays its captured graph (on a CPU: runs that path) from now on,
+        without warm-up or capture."""
+        return draw == self._draw and (self._drawn_stage.captured or not self._drawn_stage.enabled)
+
     def drawn(self, draw: Callable[[], TensorDictBase], count: int) -> tuple[dict[str, torch.Tensor], int]:
         """``count`` updates, each on the batch returned by ``draw()``. With ``graph=True`` (CUDA) ``draw`` and
         the update are captured together, after 3 eager warm-up updates, and replayed ``count`` times: ``draw``

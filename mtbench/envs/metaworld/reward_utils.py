@@ -22,7 +22,6 @@ package. Behaviour that differs from Meta-World, all in cases where Meta-World r
 from __future__ import annotations
 
 import contextlib
-import contextvars
 import math
 from numbers import Real
 from typing import Iterator, Literal, Union
@@ -174,7 +173,7 @@ def tolerance(
         raise ValueError(f"Lower bound must be <= upper bound, got bounds=({lower}, {upper}).")
     x = _as_float_tensor(x)
     in_bounds = (x >= lower) & (x <= upper)
-    if _MTBENCH_TOLERANCE.get():
+    if _MTBENCH_TOLERANCE:
         return _mtbench_tolerance_value(x, lower, upper, in_bounds, margin, sigmoid, value_at_margin)
     if isinstance(margin, Real):
         if margin < 0:
@@ -192,7 +191,10 @@ def tolerance(
     return torch.where(in_bounds, 1.0, outside)
 
 
-_MTBENCH_TOLERANCE: contextvars.ContextVar[bool] = contextvars.ContextVar("mtbench_tolerance", default=False)
+#: whether :func:`tolerance` follows the original MTBench (set by :func:`mtbench_tolerance`). A module-level flag,
+#: not a ``contextvars.ContextVar``: ``torch.compile`` traces a global (guarding on its value) but not a context
+#: variable, and the env's stages are compiled. Rewards are evaluated from one thread.
+_MTBENCH_TOLERANCE: bool = False
 
 
 @contextlib.contextmanager
@@ -204,11 +206,12 @@ def mtbench_tolerance(enabled: bool = True) -> Iterator[None]:
     with a positive margin it agrees with Meta-World. The env evaluates the ``reward_version="paper"`` rewards in
     this context. The context is read when the reward is traced, so a CUDA graph captured inside it keeps it.
     """
-    token = _MTBENCH_TOLERANCE.set(bool(enabled))
+    global _MTBENCH_TOLERANCE
+    previous, _MTBENCH_TOLERANCE = _MTBENCH_TOLERANCE, bool(enabled)
     try:
         yield
     finally:
-        _MTBENCH_TOLERANCE.reset(token)
+        _MTBENCH_TOLERANCE = previous
 
 
 def _mtbench_tolerance_value(x: Tensor, lower: ScalarOrTensor, upper: ScalarOrTensor, in_bounds: Tensor,
