@@ -322,5 +322,6 @@ def test_compiled_stages_give_the_eager_steps() -> None:
     assert torch.equal(done_a, done_b) and bool(done_a.any())
     torch.testing.assert_close(obs_b, obs_a, atol=1e-5, rtol=1e-5)
     torch.testing.assert_close(rew_b, rew_a, atol=1e-4, rtol=1e-5)
-    with pytest.raises(ValueError, match="compile_stages must be True or False; got 'yes'"):
+    with pytest.raises(ValueError, match="compile_stages must be True, False or 'auto'; got 'yes'"):
         make_env("push", num_envs=2, device="cpu", compile_stages="yes")
+    assert make_env("push", num_envs=2, device="cpu", compile_stages="auto").compile_stages is False  # CPU: off

@@ -529,6 +529,9 @@ def test_overlapped_updates_run_before_the_collection_and_it_acts_with_the_pre_u
     assert trainer.updates == 2 * 5 and [h["train/replay_size"] for h in history][-1] == 36
     live = dict(trainer.actor.named_parameters())
     assert not all(torch.equal(live[k], v) for k, v in trainer.policy.actor.named_parameters())  # updated since
+    # the copy is no autograd edge to the live parameters: on a GPU such an edge (their AccumulateGrad nodes, made
+    # on the main stream) broke the capture of the next update on the side stream
+    assert all(p.grad_fn is None and not p.requires_grad for p in trainer.policy.actor.parameters())
 
 
 def test_cudagraph_update_resolves_for_sac():

@@ -186,7 +186,10 @@ class WarpSim:
         self._overflow = wp.to_torch(d.overflow)
         self._geom_xpos = wp.to_torch(d.geom_xpos)
         self._cfrc_ext = wp.to_torch(d.cfrc_ext)
+        # views of the per-world model fields, made here: torch.compile traces a dict lookup, not wp.to_torch
         self._field_views: dict[str, torch.Tensor] = {}
+        for name in self.batched_fields:
+            self.model_field(name)
         self._static_geoms = self._static_geom_table()
         self._graphs: dict[str, object] = {}
         self._phases = {"step": self._step_impl, "reset": self._reset_impl, "kin": self._kinematics_impl}

