@@ -103,20 +103,14 @@ def run_timed(env, steps: int, warmup: int, policy: str = "random") -> tuple[flo
 
 
 def phase_times(env, steps: int) -> dict[str, float]:
-    """Milliseconds per step of each part of a Meta-World env step (``MetaWorldEnv._core_step``'s sequence), each
-    synchronised before and after, over ``steps`` steps of random actions (after the stages are captured)."""
-    from mtbench.sim import launch_all
-
-    act, evaluate, place, finish = env._stages
-    parts = {"torch: action": act, "physics: step": lambda: launch_all(env._sims, "step"),
-             "torch: evaluate": evaluate, "physics: reset": lambda: launch_all(env._sims, "reset"),
-             "torch: place objects": place, "physics: kinematics": lambda: launch_all(env._sims, "kin"),
-             "torch: finish": finish}
-    totals = dict.fromkeys(parts, 0.0)
+    """Milliseconds per step of each part of a Meta-World env step (``env.step_parts``, the sequence
+    ``_core_step`` runs), each synchronised before and after, over ``steps`` steps of random actions (after the
+    stages are captured)."""
+    totals = {name: 0.0 for name, _ in env.step_parts}
     gen = torch.Generator(device=env.device).manual_seed(1)
     for _ in range(steps):
         env._action_in.copy_(torch.rand(env._action_in.shape, generator=gen, device=env.device) * 2 - 1)
-        for name, part in parts.items():
+        for name, part in env.step_parts:
             sync(env.device)
             t0 = time.perf_counter()
             part()

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Sequence
+import functools
+from typing import Callable, Sequence
 
 import torch
 from tensordict import TensorDict, TensorDictBase
@@ -194,6 +195,18 @@ class MetaWorldEnv(EnvBase):
             GraphedStage(self._stage_place_objects, name="place_objects", generators=(self._generator,), **stage),
             GraphedStage(compiled(self._stage_finish), name="finish", **stage),
         )
+        act, evaluate, place, finish = self._stages
+        streams = dict(parallel_streams=parallel_streams)
+        #: the parts of a step, in order (what :meth:`_core_step` runs; benchmarks/env_throughput.py times them)
+        self.step_parts: tuple[tuple[str, Callable[[], None]], ...] = (
+            ("torch: action", act),
+            ("physics: step", functools.partial(launch_all, self._sims, "step", **streams)),
+            ("torch: evaluate", evaluate),
+            ("physics: reset", functools.partial(launch_all, self._sims, "reset", **streams)),
+            ("torch: place objects", place),
+            ("physics: kinematics", functools.partial(launch_all, self._sims, "kin", **streams)),
+            ("torch: finish", finish),
+        )
         self._make_specs()
 
     # ------------------------------------------------------------------ specs
@@ -359,15 +372,9 @@ class MetaWorldEnv(EnvBase):
         """One control step of every world: action, physics of every block, observation, reward, statistics and
         autoreset of finished worlds (native autoreset). Branch-free tensor work, no host synchronisation; on
         the GPU the torch stages replay CUDA graphs between the blocks' physics graphs."""
-        act, evaluate, place, finish = self._stages
         self._action_in.copy_(action)
-        act()
-        launch_all(self._sims, "step", parallel_streams=self._parallel_streams)
-        evaluate()
-        launch_all(self._sims, "reset", parallel_streams=self._parallel_streams)
-        place()
-        launch_all(self._sims, "kin", parallel_streams=self._parallel_streams)
-        finish()
+        for _, part in self.step_parts:
+            part()
         # the buffers are overwritten by the next step
         return {"observation": self._obs.clone(), "reward": self._reward[:, None].clone(),
                 "done": self._done[:, None].clone()}
