@@ -61,7 +61,7 @@ class MetaWorldEnv(EnvBase):
         graph_warmup: eager steps before the torch work is captured.
         compile_stages: ``torch.compile`` the torch stages (Inductor fuses each task's element-wise reward,
             success and observation code into a few kernels; the reset draws stay eager, as ``torch.compile``
-            does not trace a ``torch.Generator``). With 50 tasks a step's torch work is ~15,000 small kernels;
+            does not trace a ``torch.Generator``). With 50 tasks a step's torch work is ~15,000 torch ops (views included);
             compiled, MT50-rand's reward/observation stage takes 1.2 ms instead of 17.4 on an H200 and the env
             step 24.5 ms instead of 43.8 (docs/benchmarks.md §6). Compiles at the first step (MT50: ~5 minutes
             on the GPU host; Inductor caches it on disk for later runs). Same results up to float rounding.
