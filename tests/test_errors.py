@@ -133,6 +133,11 @@ CASES: list[tuple[str, Callable[[Path, Any], Any], type[Exception], str]] = [
      r"^device='tpu' is not supported; valid choices: 'auto', 'cpu', 'cuda' or 'cuda:<index>'$"),
     ("loss.lr_schedule=cosine", lambda t, e: _build(t, "loss.lr_schedule=cosine"), ValueError,
      r"^unknown loss\.lr_schedule 'cosine'; valid choices: \['fixed', 'adaptive'\]$"),
+    ("loss.clip_actions=yes", lambda t, e: _build(t, "loss.clip_actions=yes"), ValueError,
+     r"^loss\.clip_actions must be true or false; got 'yes'$"),
+    ("loss=pqn loss.clip_actions=true", lambda t, e: _build(t, "loss=pqn", "+loss.clip_actions=true"), ValueError,
+     r"^loss\.clip_actions=true applies to loss=ppo\|grpo \(Gaussian policies\); loss=pqn acts within its bounds "
+     r"already \(sac: tanh-squashed, pqn: discrete bins\)$"),
     ("loss.name=dqn", lambda t, e: _build(t, "loss.name=dqn"), ValueError,
      r"^unknown loss\.name 'dqn'; valid choices: \[" + ", ".join(f"'{n}'" for n in LOSSES) + r"\]$"),
     ("loss.minibatch_size=20", lambda t, e: _build(t, "loss.minibatch_size=20"), ValueError,

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import torch
 from tensordict import TensorDict
+from torchrl.data import Bounded
 
 from cpu_runs import train_on_cpu
 from envs_for_tests import SyntheticMTEnv
@@ -113,6 +114,21 @@ def test_sampled_and_deterministic_actions_differ_only_by_the_noise(checkpoint: 
         policy.head.log_std.fill_(-30.0)
     assert torch.allclose(policy(td, deterministic=False).clamp(-1, 1), loc.clamp(-1, 1), atol=1e-6)
     assert torch.equal(td["observation"], raw)  # the input is not normalised in place
+    # a run that clamped its actions in training (loss.clip_actions, MTBench's Go1 configs) is evaluated clamped to
+    # [-1, 1], sampled or not, whatever the env's own bounds
+    state = read_checkpoint(checkpoint)
+    state["config"]["loss"]["clip_actions"] = True
+
+    class WideSpecs(Specs):
+        action_spec = Bounded(-5.0, 5.0, shape=(6, 4))
+
+    clipped = load_policy(state, WideSpecs(), torch.device("cpu"))
+    assert float(clipped.action_low) == -1.0 and float(clipped.action_high) == 1.0
+    with torch.no_grad():
+        clipped.head.log_std.fill_(2.0)
+    assert clipped(td, deterministic=False).abs().max() <= 1.0
+    assert torch.equal(load_policy(read_checkpoint(checkpoint), WideSpecs(), torch.device("cpu")).action_high,
+                       torch.full((4,), 5.0))
 
 
 def test_videos_have_the_requested_frames_and_show_the_scene(noiseless_video_report) -> None:

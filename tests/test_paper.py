@@ -167,6 +167,9 @@ def test_row_configs_carry_the_appendix_values(tables):
         c = row.cfg
         assert c.loss.lr_schedule == pk["lr_schedule"] and c.loss.minibatch_size == pk["minibatch_size"]
         assert c.loss.normalize_input is False and c.loss.normalize_value is False
+        assert c.loss.clip_actions is True  # rl_games clip_actions of MTBench's Go1 configs
+        assert c.loss.lr_schedule_type == "standard"
+        assert c.loss.kl_threshold == (0.01 if "moore" in name else 0.008)  # go1-mt-moore-SHPPO.yaml: 0.01
         if not row.is_pretrain:
             assert iterations(row) == pk["max_epochs"][0 if name.startswith("easy") else 1]
             assert c.env.name == "parkour_" + row.meta["setting"]

@@ -293,13 +293,18 @@ def test_repeated_non_finite_iterations_abort(tmp_path: Path) -> None:
     assert not list((tmp_path / "ckpt").glob("*.pt"))  # no checkpoint of a failed run, even at its last iteration
 
 
-def test_adaptive_learning_rate_follows_kl(tmp_path: Path) -> None:
-    up = build_trainer(_cfg(tmp_path, "loss.lr_schedule=adaptive", "loss.kl_threshold=100.0"), env=_env())
+@pytest.mark.parametrize(("schedule_type", "changes"), [("minibatch", 4), ("standard", 2)])
+def test_adaptive_learning_rate_follows_kl(tmp_path: Path, schedule_type: str, changes: int) -> None:
+    """One iteration = 2 epochs x 2 minibatches: the lr changes after every update ("minibatch") or after every
+    epoch (rl_games "standard")."""
+    common = ["loss.lr_schedule=adaptive", f"loss.lr_schedule_type={schedule_type}"]
+    up = build_trainer(_cfg(tmp_path, *common, "loss.kl_threshold=100.0"), env=_env())
     up.train_iteration()
-    assert float(up.optimizer.param_groups[0]["lr"]) == pytest.approx(5e-4 * 1.5**4, rel=1e-5)
-    down = build_trainer(_cfg(tmp_path, "loss.lr_schedule=adaptive", "loss.kl_threshold=1e-12"), env=_env())
+    assert float(up.optimizer.param_groups[0]["lr"]) == pytest.approx(5e-4 * 1.5**changes, rel=1e-5)
+    down = build_trainer(_cfg(tmp_path, *common, "loss.kl_threshold=1e-12"), env=_env())
     down.train_iteration()
-    assert float(down.optimizer.param_groups[0]["lr"]) == pytest.approx(5e-4 / 1.5**4, rel=1e-5)
+    assert float(down.optimizer.param_groups[0]["lr"]) == pytest.approx(5e-4 / 1.5**changes, rel=1e-5)
+    assert (down.updater.kl_reference is not None) is (schedule_type == "standard")
     fixed = build_trainer(_cfg(tmp_path, "loss.kl_threshold=1e-12"), env=_env())
     fixed.train_iteration()
     assert float(fixed.optimizer.param_groups[0]["lr"]) == pytest.approx(5e-4)

@@ -13,6 +13,7 @@ from tensordict.nn import InteractionType, set_interaction_type
 from torch import nn
 
 from ..trainer.actor_critic import GaussianPolicyHead, make_actor
+from ..trainer.builder import ACTION_CLIP
 from ..trainer.checkpoint import load_checkpoint
 from ..trainer.trainer import make_env_from_cfg
 from ..transforms import PerTaskObservationNorm
@@ -87,8 +88,9 @@ class EvalPolicy(nn.Module):
     """The trained actor behind the frozen per-task observation normaliser.
 
     ``forward(td, deterministic)`` returns the action for ``td["observation"]`` / ``td["task_id"]``:
-    sampled from the Gaussian policy (as in training and in the paper's evaluation) or its mean clamped to
-    the env's action bounds ``[action_low, action_high]`` (``deterministic=True``). The input tensordict is not modified.
+    sampled from the Gaussian policy (as in training and in the paper's evaluation) or its mean
+    (``deterministic=True``), clamped to ``[action_low, action_high]``: the env's action bounds, or ``[-1, 1]`` for a
+    run that clamped its actions in training (``loss.clip_actions``). The input tensordict is not modified.
     """
 
     def __init__(self, actor: nn.Module, obs_norm: PerTaskObservationNorm | None,
@@ -113,7 +115,7 @@ class EvalPolicy(nn.Module):
         kind = InteractionType.DETERMINISTIC if deterministic else InteractionType.RANDOM
         with set_interaction_type(kind):
             action = self.actor(inp).get("action")
-        return torch.clamp(action, self.action_low, self.action_high) if deterministic else action
+        return torch.clamp(action, self.action_low, self.action_high)
 
 
 def _non_persistent_buffers(module: nn.Module) -> list[str]:
@@ -155,9 +157,12 @@ def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> nn.
     if (cfg.get("loss") or {}).get("normalize_input", True) and norm_state is not None:
         obs_norm = PerTaskObservationNorm(num_tasks, state_dim=int(norm_state["stats.mean"].shape[-1]), device=device)
         obs_norm.load_state_dict(norm_state)
-    # the env's action bounds (a bounded spec): [-1, 1] for Meta-World, +-5 for Parkour; [-1, 1] otherwise
+    # the env's action bounds (a bounded spec): [-1, 1] for Meta-World, +-5 for Parkour; [-1, 1] otherwise and for a
+    # run that clamped its actions to [-1, 1] in training (loss.clip_actions, as MTBench's Go1 configs)
     low, high = getattr(env.action_spec, "low", None), getattr(env.action_spec, "high", None)
-    if isinstance(low, torch.Tensor) and isinstance(high, torch.Tensor):
+    if (cfg.get("loss") or {}).get("clip_actions", False):
+        low, high = -ACTION_CLIP, ACTION_CLIP
+    elif isinstance(low, torch.Tensor) and isinstance(high, torch.Tensor):
         low, high = low.reshape(-1, action_dim)[0], high.reshape(-1, action_dim)[0]
     else:
         low, high = -1.0, 1.0

@@ -7,6 +7,7 @@ components (env, policy, any TorchRL loss, optimizer, hooks), so stock TorchRL l
 
 from .actor_critic import GaussianPolicyHead, make_actor, make_critic
 from .builder import (
+    add_action_clip,
     add_observation_norm,
     build_env,
     build_gradient_method,
@@ -62,6 +63,7 @@ __all__ = [
     "Trainer",
     "TrainerHook",
     "TrainingLoop",
+    "add_action_clip",
     "add_observation_norm",
     "add_observation_norm_keep_raw",
     "build_env",

@@ -8,7 +8,7 @@ from typing import Any, Mapping
 import torch
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
-from torchrl.envs import EnvBase, TransformedEnv
+from torchrl.envs import ClipTransform, EnvBase, TransformedEnv
 
 from ..modules.q_network import DecomposedQNetwork
 from ..objectives import MTGRPOLoss, MTPPOLoss, MTPQNLoss, make_gradient_method
@@ -40,6 +40,26 @@ def build_env(cfg: DictConfig, device: torch.device) -> EnvBase:
     first when the run is far too big for the CPU."""
     warn_if_cpu_run_too_big(device, int(cfg.env.num_envs), int(cfg.loss.horizon))
     return make_env_from_cfg(cfg.env, device, int(cfg.seed))
+
+
+ACTION_CLIP = 1.0  # rl_games clip_actions: the sampled action is clamped to [-ACTION_CLIP, ACTION_CLIP]
+
+
+def add_action_clip(env: EnvBase, loss_cfg: Mapping[str, Any]) -> EnvBase:
+    """rl_games' ``clip_actions`` (``loss.clip_actions: true``): the env receives the sampled action clamped to
+    ``[-1, 1]`` (TorchRL's ``ClipTransform`` on the action, applied on the way into the env), while the rollout keeps
+    the raw sample, whose log-probability the loss uses (rl_games stores the unclamped action too). ``env``
+    unchanged when ``clip_actions`` is false (default). MTBench's Go1 configs clamp (docs/parkour.md, "Action
+    clipping"): with Parkour's action scale 1 the joint targets stay within 1 rad of the default pose, where the
+    env's own clip alone allows 5 rad."""
+    if not loss_cfg.get("clip_actions", False):
+        return env
+    bound = torch.tensor(ACTION_CLIP, device=env.device)
+    clip = ClipTransform(in_keys_inv=["action"], out_keys_inv=["action"], low=-bound, high=bound)
+    if isinstance(env, TransformedEnv):
+        env.append_transform(clip)
+        return env
+    return TransformedEnv(env, clip)
 
 
 def add_observation_norm(env: EnvBase, loss_cfg: Mapping[str, Any]) -> EnvBase:
@@ -154,6 +174,14 @@ def build_optimizer(
     return torch.optim.Adam(params, lr=lr, eps=float(loss_cfg["adam_eps"]), fused=True, capturable=capturable)
 
 
+def uses_epoch_kl_reference(loss_cfg: Mapping[str, Any]) -> bool:
+    """Whether the run adapts its learning rate as rl_games' ``schedule_type: standard`` (``loss.lr_schedule:
+    adaptive`` with ``loss.lr_schedule_type: standard``): then the loop also measures each minibatch's KL against
+    the policy one epoch earlier (rl_games' ``update_mu_sigma``; ``Trainer(kl_reference=True)``)."""
+    return (loss_cfg.get("name") in ("ppo", "grpo") and loss_cfg.get("lr_schedule", "fixed") == "adaptive"
+            and loss_cfg.get("lr_schedule_type", "minibatch") == "standard")
+
+
 def build_hooks(cfg: DictConfig, logger: Any = None) -> list[TrainerHook]:
     """The hooks of a run, in call order: non-finite guard, the PQN schedules (``loss=pqn``: epsilon, learning-rate
     decay), adaptive learning rate (``loss.lr_schedule=adaptive``), metrics logger (when ``logger`` is given),
@@ -163,8 +191,9 @@ def build_hooks(cfg: DictConfig, logger: Any = None) -> list[TrainerHook]:
     if lc.get("name") == "pqn":
         hooks += pqn_hooks(lc)  # epsilon schedule, learning-rate decay
     if lc.get("lr_schedule", "fixed") == "adaptive":
+        period = "epoch" if uses_epoch_kl_reference(lc) else "minibatch"
         hooks.append(AdaptiveLR(float(lc.get("kl_threshold", 0.008)), float(lc.get("min_lr", 1e-6)),
-                                float(lc.get("max_lr", 1e-2))))
+                                float(lc.get("max_lr", 1e-2)), period=period))
     if logger is not None:
         hooks.append(MetricsLogger(logger))
     hooks.append(ProgressHook(str(lg.get("progress", "auto")), int(lg.get("print_every", 1) or 1)))
@@ -226,7 +255,7 @@ def build_trainer(
         return trainer
     if cfg.loss.name == "pqn":
         env = discrete_action_env(env, int(cfg.loss.bins_per_dim))
-    env = add_observation_norm(env, cfg.loss)
+    env = add_observation_norm(add_action_clip(env, cfg.loss), cfg.loss)
     actor, critic = build_networks(cfg, env, device)
     num_tasks = int(base_env(env).num_tasks)
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
@@ -258,6 +287,7 @@ def build_trainer(
         cudagraph_policy=bool(cfg.get("cudagraphs", False)),
         cudagraph_update=graph_update,
         hold_keys=pqn_hold_keys(cfg.loss, actor) if cfg.loss.name == "pqn" else (),
+        kl_reference=uses_epoch_kl_reference(cfg.loss),
         config=cfg,
     )
     if resumed is not None:
@@ -268,6 +298,8 @@ def build_trainer(
 
 
 __all__ = [
+    "ACTION_CLIP",
+    "add_action_clip",
     "add_observation_norm",
     "build_env",
     "build_gradient_method",
@@ -277,6 +309,7 @@ __all__ = [
     "build_optimizer",
     "build_trainer",
     "compile_networks",
+    "uses_epoch_kl_reference",
     "graph_safe_update",
     "load_resume_checkpoint",
     "resolve_graph_update",

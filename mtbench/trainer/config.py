@@ -17,6 +17,10 @@ from ..objectives.sac import ALPHA_LOSSES
 
 LOSSES = ("ppo", "grpo", "sac", "pqn")
 LR_SCHEDULES = ("fixed", "adaptive")
+# when the adaptive learning rate adapts and against what its KL is measured: "minibatch" (after every update, KL to
+# the behaviour policy) or "standard" (rl_games schedule_type standard: after every epoch, on the epoch's mean KL,
+# each minibatch's measured against the policy one epoch earlier)
+LR_SCHEDULE_TYPES = ("minibatch", "standard")
 LOGGERS = ("mcap", "none")
 PROGRESS_MODES = ("auto", "tqdm", "line", "none")
 MATMUL_PRECISIONS = ("highest", "high", "medium")
@@ -84,8 +88,15 @@ def check_config(cfg: DictConfig) -> None:
         check_sac_loss(lc)
     else:
         _choice(lc.get("lr_schedule", "fixed"), "loss.lr_schedule", LR_SCHEDULES)
+        _choice(lc.get("lr_schedule_type", "minibatch"), "loss.lr_schedule_type", LR_SCHEDULE_TYPES)
         for key in ("horizon", "epochs", "minibatch_size"):
             _int(lc.get(key), f"loss.{key}", 1)
+    clip_actions = lc.get("clip_actions", False)
+    if not isinstance(clip_actions, bool):
+        raise ValueError(f"loss.clip_actions must be true or false; got {clip_actions!r}")
+    if clip_actions and lc.get("name") not in ("ppo", "grpo"):
+        raise ValueError(f"loss.clip_actions=true applies to loss=ppo|grpo (Gaussian policies); loss={lc.get('name')} "
+                         "acts within its bounds already (sac: tanh-squashed, pqn: discrete bins)")
     if lc.get("name") == "pqn":
         from .pqn import check_pqn_config
 
@@ -248,6 +259,7 @@ __all__ = [
     "LOGGERS",
     "LOSSES",
     "LR_SCHEDULES",
+    "LR_SCHEDULE_TYPES",
     "MATMUL_PRECISIONS",
     "PROGRESS_MODES",
     "as_config",

@@ -59,6 +59,10 @@ class Trainer(TrainingLoop):
         cudagraph_update: replay each minibatch update from a CUDA graph.
         hold_keys: root entries that keep their first-step value for the whole rollout (MT-PQN's
             ``loss.hold_observation``; :class:`~mtbench.trainer.rollout.Rollout`).
+        kl_reference: after every minibatch update, write the policy's distribution on that minibatch before the
+            step (the loss's ``loc``/``scale`` keys) into the batch (rl_games' ``update_mu_sigma``), so that from
+            the second epoch on the loss's ``kl`` measures the change over one epoch, not the distance to the
+            behaviour policy (``loss.lr_schedule_type=standard``; :class:`~mtbench.trainer.update.MinibatchUpdate`).
         config: the run's config (recorded in checkpoints and logs; checked on resume).
     """
 
@@ -80,6 +84,7 @@ class Trainer(TrainingLoop):
         cudagraph_policy: bool = False,
         cudagraph_update: bool = False,
         hold_keys: Sequence[NestedKey] = (),
+        kl_reference: bool = False,
         config: DictConfig | None = None,
     ) -> None:
         super().__init__(
@@ -96,8 +101,14 @@ class Trainer(TrainingLoop):
         device = next(iter(self.optimizer.param_groups[0]["params"])).device
         self.updater = MinibatchUpdate(
             self.update_module, optimizer, max_grad_norm=max_grad_norm, call_hooks=self._call,
-            graph=cudagraph_update, device=device,
+            graph=cudagraph_update, device=device, kl_reference=self._policy_distribution if kl_reference else None,
         )
+
+    def _policy_distribution(self, minibatch: TensorDictBase) -> dict[str, torch.Tensor]:
+        """The policy's current distribution parameters on ``minibatch`` under the loss's ``loc``/``scale`` keys."""
+        keys = self.loss.tensor_keys
+        params = self.policy.get_dist_params(minibatch.select(*self.policy.in_keys).clone(False))
+        return {keys.loc: params.get(keys.loc), keys.scale: params.get(keys.scale)}
 
     def update_summary(self) -> str:
         """What one iteration's update does, for the front door's banner."""

@@ -4,7 +4,7 @@ with hook points, metrics summed on the device, optionally replayed from a CUDA 
 from __future__ import annotations
 
 import contextlib
-from typing import Callable, Iterable, Iterator, Mapping, Sequence
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 import torch
 from tensordict import TensorDictBase
@@ -13,7 +13,9 @@ from torch import nn
 from ..objectives import compute_gradients
 from ..utils import GraphedStage
 
-HookCaller = Callable[[str, TensorDictBase], None]
+HookCaller = Callable[[str, Any], None]
+#: the policy's current distribution parameters on a minibatch, ``{key: tensor}`` (e.g. ``loc``, ``scale``)
+ReferenceFn = Callable[[TensorDictBase], Mapping[str, torch.Tensor]]
 
 
 class MinibatchUpdate:
@@ -36,6 +38,12 @@ class MinibatchUpdate:
     :meth:`drawn` runs updates on batches that a function makes on the device (the off-policy loop's draw from
     its full replay buffer); with ``graph=True`` the draw is captured with the step and replayed with it.
 
+    With ``kl_reference`` (rl_games' ``update_mu_sigma``), every update of :meth:`epochs` first evaluates the
+    policy's distribution on its minibatch (no gradient; inside the captured step with ``graph=True``), and after
+    the step writes it into the batch at the minibatch's rows: from the second epoch on, a loss that measures its
+    ``kl`` against the batch's ``loc``/``scale`` measures it against the policy one epoch earlier (the first epoch:
+    the behaviour policy). After every epoch the hooks of ``"on_epoch_end"`` get the epoch's per-update means.
+
     Args:
         update_module: the loss, or the gradient-method wrapper around it.
         optimizer: over the parameters to update (``capturable=True`` for ``graph=True``: fused Adam, or PQN's
@@ -45,6 +53,8 @@ class MinibatchUpdate:
             networks and temperatures, as MTBench clips each of its optimizers) and report their norms as
             ``grad_norm_<name>``; ``None``: one global clip over all the optimizer's parameters.
         after_step: called after every ``optimizer.step()`` (inside the captured step with ``graph=True``).
+        kl_reference: ``kl_reference(minibatch) -> {key: tensor}``, the policy's distribution parameters before the
+            step, written back into the batch by :meth:`epochs` (above); ``None``: the batch is not changed.
         call_hooks: ``call_hooks(point, metrics)`` runs the hooks of ``point`` (``"before_optimizer_step"``,
             ``"on_update"``); they must be graph-safe.
         graph: replay the update from a CUDA graph. On a CPU device the same code path runs (minibatches gathered
@@ -63,6 +73,7 @@ class MinibatchUpdate:
         device: torch.device | str = "cpu",
         clip_groups: Mapping[str, Sequence[torch.Tensor]] | None = None,
         after_step: Callable[[], None] | None = None,
+        kl_reference: ReferenceFn | None = None,
     ) -> None:
         self.update_module = update_module
         self.optimizer = optimizer
@@ -70,6 +81,8 @@ class MinibatchUpdate:
         self.max_grad_norm = max_grad_norm
         self.clip_groups = None if clip_groups is None else {k: list(v) for k, v in clip_groups.items()}
         self.after_step = after_step
+        self.kl_reference = kl_reference
+        self._reference: dict[str, torch.Tensor] | None = None  # the last update's pre-step distribution
         self.call_hooks = call_hooks
         self.graph = bool(graph)
         self.device = torch.device(device)
@@ -101,6 +114,8 @@ class MinibatchUpdate:
 
     def step(self, minibatch: TensorDictBase) -> TensorDictBase:
         """One update on ``minibatch``; returns its metrics (detached device tensors, ``grad_norm`` added)."""
+        if self.kl_reference is not None:
+            self._keep_reference(minibatch)
         self.optimizer.zero_grad(set_to_none=True)
         out = compute_gradients(self.update_module, minibatch)
         group_norms: dict[str, torch.Tensor] = {}
@@ -120,6 +135,25 @@ class MinibatchUpdate:
             self.after_step()
         self.call_hooks("on_update", metrics)
         return metrics
+
+    def _keep_reference(self, minibatch: TensorDictBase) -> None:
+        """The policy's distribution on ``minibatch`` before the step, into persistent buffers (which the replays
+        of a captured step write)."""
+        assert self.kl_reference is not None
+        with torch.no_grad():
+            params = {k: v.detach() for k, v in self.kl_reference(minibatch).items()}
+        if self._reference is None:  # the first calls are eager (graph warm-up)
+            self._reference = {k: v.clone() for k, v in params.items()}
+        else:
+            for k, v in params.items():
+                self._reference[k].copy_(v)
+
+    def _write_reference(self, batch: TensorDictBase, idx: torch.Tensor) -> None:
+        """The last update's pre-step distribution into ``batch`` at rows ``idx`` (rl_games ``update_mu_sigma``)."""
+        if self.kl_reference is None or self._reference is None:
+            return
+        for key, value in self._reference.items():
+            batch.get(key).index_copy_(0, idx, value.to(batch.get(key).dtype))
 
     def _clip(self, params: Sequence[torch.Tensor]) -> torch.Tensor:
         """Clip the gradients of ``params`` to ``max_grad_norm`` (if set); their norm before clipping."""
@@ -168,13 +202,16 @@ class MinibatchUpdate:
 
     def epochs(self, batch: TensorDictBase, epochs: int, minibatch_size: int) -> tuple[dict[str, torch.Tensor], int]:
         """``epochs`` passes over a random permutation of the flat ``batch`` in minibatches of ``minibatch_size``
-        (which divides the batch). Returns ``({key: per-update mean}, number of updates)`` (device tensors)."""
+        (which divides the batch); the hooks of ``"on_epoch_end"`` after each pass. With ``kl_reference`` the
+        batch's distribution entries are rewritten (class docstring). Returns ``({key: per-update mean}, number of
+        updates)`` (device tensors)."""
         n = batch.batch_size[0]
         num_minibatches = n // minibatch_size
         if self.graph and self._static is None:
             self._static = batch[:minibatch_size].clone()
         total: torch.Tensor | None = None
         for _ in range(epochs):
+            epoch_total: torch.Tensor | None = None
             perm = torch.randperm(n, device=batch.device)
             for i in range(num_minibatches):
                 idx = perm[i * minibatch_size : (i + 1) * minibatch_size]
@@ -189,7 +226,11 @@ class MinibatchUpdate:
                     vector = self._metric_buf
                 else:
                     vector = self._vector(self.step(batch[idx]))
+                self._write_reference(batch, idx)
                 total = vector.clone() if total is None else total.add_(vector)
+                epoch_total = vector.clone() if epoch_total is None else epoch_total.add_(vector)
+            assert epoch_total is not None
+            self.call_hooks("on_epoch_end", self._means(epoch_total, num_minibatches))
         count = epochs * num_minibatches
         assert total is not None and self.metric_keys is not None
         return self._means(total, count), count

@@ -20,6 +20,8 @@ class TrainerHook:
       are written and clipped / after ``optimizer.step()``. ``metrics`` holds the update's scalar device tensors
       (``loss_*``, ``grad_norm``, ...) and may be extended. The update may be replayed from a CUDA graph: these
       two must only do sync-free tensor work (no ``.item()``, no Python branch on a tensor);
+    * :meth:`on_epoch_end` -- after each epoch of the on-policy update, with the epoch's per-update means (device
+      tensors; called eagerly, outside any graph, no host sync expected);
     * :meth:`on_iteration_end` -- after each iteration with its host-side metrics (a dict of floats the hook
       may extend or edit; later hooks see the edits);
     * :meth:`on_train_end` -- after the loop (``stopped``: a stop request ended it early);
@@ -46,6 +48,9 @@ class TrainerHook:
 
     def on_update(self, trainer: Any, metrics: TensorDictBase) -> None:
         """After ``optimizer.step()`` of a minibatch update (device work only, graph-safe)."""
+
+    def on_epoch_end(self, trainer: Any, metrics: dict[str, Any]) -> None:
+        """After an epoch of minibatch updates (on-policy loop), with ``{key: per-update mean}`` device tensors."""
 
     def on_iteration_end(self, trainer: Any, metrics: dict[str, float]) -> None:
         """After an iteration, with its metrics (host floats)."""
