@@ -15,6 +15,7 @@ import torch
 from hydra import compose, initialize_config_dir
 
 from cpu_runs import assert_same_metrics, compose_config
+from mtbench.envs.parkour.observation import SLICES
 from mtbench.trainer import build_trainer
 from mtbench.trainer.checkpoint import load_checkpoint
 from mtbench.trainer.hooks import Checkpointer
@@ -27,6 +28,7 @@ from mtbench.trainer.pretraining import (
     stage_directory,
     stage_key,
 )
+from mtbench.trainer.rollout import base_env
 from mtbench.trainer.run import parkour_arch_overrides, train_stage
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,6 +86,7 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
         assert stage_key(flat_stage_config(same)) == key, other
     # what shapes the weights does
     for other in (["arch=mlp_parkour"], ["arch.kwargs.hidden_dim=128"], ["loss.lr=1e-3"], ["pretrain.iterations=2"],
+                  ["loss.clip_actions=false"],
                   ["pretrain.seed=1"], ["pretrain.num_envs=84"], ["env.overrides.num_rows=3"]):
         differs = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other)
         assert stage_key(flat_stage_config(differs)) != key, other
@@ -235,6 +238,45 @@ def test_resuming_mid_fine_tuning_continues_exactly(stage: tuple[Path, Path], tm
     assert_same_metrics(a, b)
 
 
+# ---------------------------------------------------------------------------------------------- action clipping
+@pytest.mark.parametrize(("overrides", "expected"), [
+    (["env=parkour_hard_cl"], True), (["env=parkour_easy", "arch=moore"], True), (["env=parkour_flat"], True),
+    (["env=parkour_hard"], True), (["env=mt10_rand"], False), (["env=mt10_rand", "loss=grpo"], False)])
+def test_parkour_settings_clip_actions_as_mtbench_go1_configs(overrides: list[str], expected: bool) -> None:
+    assert compose_config(overrides).loss.clip_actions is expected
+
+
+@pytest.mark.parametrize(("arch", "kl_threshold"), [("mlp_parkour", 0.008), ("moore_parkour", 0.01),
+                                                    ("paco_parkour", 0.008), ("soft_modularization_parkour", 0.008)])
+def test_go1_kl_adaptive_lr_as_mtbench(arch: str, kl_threshold: float) -> None:
+    """MTBench's Go1 configs: KL-adaptive lr, rl_games schedule_type standard, threshold 0.008 (MOORE 0.01)."""
+    loss = compose_config(["env=parkour_hard_cl", f"arch={arch}"]).loss
+    assert (loss.lr_schedule, loss.lr_schedule_type, loss.kl_threshold) == ("adaptive", "standard", kl_threshold)
+
+
+@pytest.mark.parametrize("clip", [True, False])
+def test_clipped_actions_reach_the_env_and_the_rollout_keeps_the_raw_sample(tmp_path: Path, clip: bool) -> None:
+    """rl_games ``clip_actions`` (MTBench's Go1 configs): the env steps with, and observes as its last action,
+    ``clamp(a, -1, 1)``; the rollout keeps the raw sample (whose log-probability the loss uses). Without it the
+    env's own +-5 clip applies."""
+    cfg = _cfg(tmp_path, "env=parkour_hard_cl", "arch=mlp_parkour", "pretrain.iterations=0",
+               f"loss.clip_actions={str(clip).lower()}")
+    trainer = build_trainer(cfg)
+    env, base = trainer.env, base_env(trainer.env)
+    td = env.reset()
+    raw = torch.linspace(-3.0, 3.0, 12).expand(42, 12).clone()
+    td["action"] = raw
+    stepped, _ = env.step_and_maybe_reset(td)
+    running = ~stepped["next", "done"].squeeze(-1)  # finished worlds were reset (last action 0)
+    assert running.sum() >= 40
+    expected = raw.clamp(-1.0, 1.0) if clip else raw
+    torch.testing.assert_close(base.last_action[running], expected[running], rtol=0, atol=0)
+    observed = stepped["next", "observation"][:, SLICES["last_action"]]
+    torch.testing.assert_close(observed[running], expected[running], rtol=0, atol=0)
+    assert torch.equal(stepped["action"], raw)
+    trainer.env.close()
+
+
 # ---------------------------------------------------------------------------------------------- every arch / grad
 @pytest.mark.parametrize(
     ("arch", "grad"),
@@ -314,9 +356,11 @@ def test_an_interrupted_stage_continues_from_its_last_checkpoint(tmp_path: Path)
 # ---------------------------------------------------------------------------------------------- evaluation
 def test_eval_command_on_a_parkour_moore_checkpoint(tmp_path: Path) -> None:
     """``examples/eval.py`` on a Parkour run (MOORE: its task one-hots are a non-persistent buffer that TorchRL's
-    loss keeps): per-task progress for the 21 terrains, deterministic actions inside the Go1's +-5 bounds; videos are
-    refused with a clear message."""
+    loss keeps): per-task progress for the 21 terrains, deterministic actions clamped to [-1, 1] as in training
+    (``loss.clip_actions``, MTBench's Go1 configs; the env's own bounds are +-5); ``video=true`` writes one video per
+    terrain, each world on its own tile."""
     from mtbench.evaluation import EvalArgumentError, evaluate, parse_args
+    from mtbench.evaluation.video import read_video
 
     cfg = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", "pretrain.iterations=0",
                "+env.overrides.episode_length=16")
@@ -346,6 +390,13 @@ def test_eval_command_on_a_parkour_moore_checkpoint(tmp_path: Path) -> None:
     assert all(n >= 1 for n in deterministic.episodes)
     assert all(0.0 <= p <= 1.0 for p in deterministic.success)
     actions = torch.cat(seen)
-    assert actions.abs().max() == 5.0  # clamped to the Go1's +-5, not to Meta-World's [-1, 1]
-    with pytest.raises(EvalArgumentError, match="video=true renders .* ParkourEnv has none"):
-        evaluate(parse_args([f"checkpoint={ckpt}", "episodes=1", "video=true", f"out={tmp_path / 'eval2'}"]))
+    assert actions.abs().max() == 1.0  # clamped as in training (clip_actions), not to the env's +-5
+    video = evaluate(parse_args([f"checkpoint={ckpt}", "episodes=1", "video=true", "video_frames=4",
+                                 "video_size=48x32", "deterministic=true", f"out={tmp_path / 'eval2'}"]))
+    assert sorted(video.videos) == sorted(video.info["task_names"]) and len(video.videos) == 21
+    clip = read_video(video.videos["box_jump_even"])
+    assert clip.shape == (4, 32, 48, 3)
+    assert video.frames_png is not None and video.frames_png.is_file()
+    with pytest.raises(EvalArgumentError, match=r"video_grid=2 needs 4 worlds per task, the smallest task block has 1"):
+        evaluate(parse_args([f"checkpoint={ckpt}", "episodes=1", "video=true", "video_grid=2",
+                             f"out={tmp_path / 'eval3'}"]))

@@ -342,6 +342,11 @@ def test_cpu_default_overrides_and_resume_directory() -> None:
     assert cpu_default_overrides([], cuda_available=False) == ["env=cpu_small"]
     assert cpu_default_overrides(["loss=grpo"], cuda_available=False) == ["env=cpu_small"]
     assert cpu_default_overrides([], cuda_available=True) == []
+    # a named config (a paper row) keeps its own env, also on the CPU
+    paper = ["--config-dir", "conf/paper/efficiency", "--config-name", "mt10_rand_pqn", "device=cpu"]
+    assert cpu_default_overrides(paper, cuda_available=False) == []
+    assert cpu_default_overrides(["--config-name=mt10_rand_pqn"], cuda_available=False) == []
+    assert cpu_default_overrides(["--config-name", "config"], cuda_available=False) == ["env=cpu_small"]
     assert cpu_default_overrides(["device=cpu"], cuda_available=True) == ["env=cpu_small"]
     assert cpu_default_overrides(["env=mt10_rand"], cuda_available=False) == []
     assert resume_dir_overrides(["resume=/o/d/t/checkpoints/ckpt_000050.pt"]) == ["hydra.run.dir=/o/d/t"]

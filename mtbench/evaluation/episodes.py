@@ -69,8 +69,8 @@ def worlds_per_task(env: Any) -> list[int]:
 
 
 def passes_needed(env: Any, episodes: int) -> int:
-    """Passes of one episode per world so that every task finishes at least ``episodes`` episodes."""
-    return max(1, math.ceil(episodes / min(worlds_per_task(env))))
+    """Passes of one episode per world so that every task (with worlds) finishes at least ``episodes`` episodes."""
+    return max(1, math.ceil(episodes / min(c for c in worlds_per_task(env) if c > 0)))
 
 
 def run_episodes(

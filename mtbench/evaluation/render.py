@@ -9,7 +9,9 @@ state (no copy to MuJoCo C, no GL context).
 :class:`CameraSpec` (a look-at camera, fixed or following a body). The simulator's own data is only read: the
 renderer hands MuJoCo Warp a shallow copy of ``mjw.Data`` whose world count is ``nworld`` and whose camera pose
 arrays are the renderer's own, so the env's camera and light state is never written.
-:class:`EnvRenderer` does this for every task block of an mtbench env.
+:class:`EnvRenderer` does this for every task block of an mtbench env: one renderer per task block for envs made of
+per-task scenes (Meta-World), or one renderer over chosen worlds of an env whose tasks share one simulator (Parkour:
+each world on its own terrain tile, selected per world through ``geom_dataid``).
 """
 
 from __future__ import annotations
@@ -70,6 +72,16 @@ METAWORLD_CAMERA = CameraSpec(eye=(1.3, 1.2, 1.0), target=(-0.1, 0.5, 0.1))
 # colour of rays that hit nothing (RGBA in [0, 1]): a light grey-blue sky instead of MuJoCo Warp's black
 BACKGROUND = (0.62, 0.70, 0.78, 1.0)
 
+# Model fields that MuJoCo Warp's renderer reads per world (``field[worldid % field.shape[0]]``): a renderer of chosen
+# worlds gathers those that the simulator batches per world (e.g. Parkour's per-world terrain tile, ``geom_dataid``)
+RENDER_MODEL_FIELDS = ("geom_dataid", "geom_matid", "geom_rgba", "geom_size", "light_active", "light_ambient",
+                       "light_attenuation", "light_castshadow", "light_cutoff", "light_diffuse", "light_exponent",
+                       "light_specular", "light_type", "mat_emission", "mat_rgba", "mat_shininess", "mat_specular",
+                       "mat_texid", "mat_texrepeat", "mat_texuniform", "cam_fovy", "cam_intrinsic", "cam_projection",
+                       "cam_sensorsize")
+# Data fields that it reads (besides the camera poses, which the renderer owns)
+RENDER_DATA_FIELDS = ("geom_xpos", "geom_xmat", "light_xpos", "light_xdir", "flexvert_xpos")
+
 
 def look_at(eye: torch.Tensor, target: torch.Tensor, up: torch.Tensor) -> torch.Tensor:
     """MuJoCo camera orientation ``[..., 3, 3]`` (columns: right, up, backward; the camera looks along -z)."""
@@ -80,7 +92,8 @@ def look_at(eye: torch.Tensor, target: torch.Tensor, up: torch.Tensor) -> torch.
 
 
 class WorldRenderer:
-    """RGB frames ``[nworld, H, W, 3]`` (uint8, on the sim's device) of the first ``nworld`` worlds of ``sim``.
+    """RGB frames ``[nworld, H, W, 3]`` (uint8, on the sim's device) of the first ``nworld`` worlds of ``sim``, or of
+    the worlds ``worlds``.
 
     Args:
         sim: the block's simulator (its current state is rendered: call after the env step).
@@ -88,10 +101,18 @@ class WorldRenderer:
         width, height: image size in pixels.
         camera: the camera (:class:`CameraSpec`).
         shadows: ray-traced shadows (costs a second ray per light and pixel).
+        worlds: indices of the worlds to render instead of the first ``nworld`` (``nworld`` must be their count):
+            every frame gathers their geometry poses and per-world model fields (``RENDER_DATA_FIELDS``,
+            ``RENDER_MODEL_FIELDS``) into the renderer's own arrays.
 
     The model must have at least one camera: MuJoCo Warp renders through model cameras. The renderer uses the
     projection (field of view) of camera 0 and replaces its pose by ``camera`` in its own copy of the camera
     arrays (the env's model and data are not changed).
+
+    Heightfields: MuJoCo Warp's render context builds the ray-tracing BVH of the heightfields that the compiled
+    model's geoms name; a model that selects another heightfield per world (Parkour's terrain tiles, through a
+    batched ``geom_dataid``) has the BVH of each further heightfield built the first time a rendered world shows it
+    (one small host read of the rendered worlds' heightfield ids per frame, only for such models).
     """
 
     def __init__(
@@ -103,9 +124,15 @@ class WorldRenderer:
         camera: CameraSpec,
         *,
         shadows: bool = True,
+        worlds: torch.Tensor | list[int] | None = None,
     ) -> None:
         if not 1 <= nworld <= sim.nworld:
             raise ValueError(f"nworld must be in [1, {sim.nworld}] (the block's worlds), got {nworld}")
+        if worlds is not None:
+            worlds = torch.as_tensor(worlds, dtype=torch.long).reshape(-1)
+            if worlds.numel() != nworld or bool(((worlds < 0) | (worlds >= sim.nworld)).any()):
+                raise ValueError(f"worlds must be {nworld} world indices in [0, {sim.nworld - 1}], got "
+                                 f"{worlds.tolist()}")
         if width < 1 or height < 1:
             raise ValueError(f"image size must be positive, got {width}x{height}")
         mjm = sim.mjm
@@ -134,8 +161,30 @@ class WorldRenderer:
             self._cam_xpos = wp.zeros((n, mjm.ncam), dtype=wp.vec3)
             self._cam_xmat = wp.zeros((n, mjm.ncam), dtype=wp.mat33)
             self._rgb = wp.zeros((n, self.height, self.width), dtype=wp.vec3)
-        # the env's data, seen as `nworld` worlds with the renderer's own camera poses (arrays are shared)
-        self._data = dataclasses.replace(sim.data, nworld=n, cam_xpos=self._cam_xpos, cam_xmat=self._cam_xmat)
+            self._worlds = None if worlds is None else worlds.to(sim.device)
+            gathered_data, self._gather = {}, []  # (source torch view, renderer's torch view) pairs
+            model = sim.model
+            if worlds is not None:
+                for name in RENDER_DATA_FIELDS:
+                    gathered_data[name] = self._gathered(getattr(sim.data, name), n)
+                batched = {}
+                for name in RENDER_MODEL_FIELDS:
+                    field = getattr(sim.model, name, None)
+                    if isinstance(field, wp.array) and field.ndim >= 1 and field.shape[0] == sim.nworld > 1:
+                        batched[name] = self._gathered(field, n)
+                model = dataclasses.replace(sim.model, **batched) if batched else sim.model
+        # the env's data, seen as `nworld` worlds with the renderer's own camera poses (arrays are shared), or
+        # the chosen worlds' copies
+        self._data = dataclasses.replace(sim.data, nworld=n, cam_xpos=self._cam_xpos, cam_xmat=self._cam_xmat,
+                                         **gathered_data)
+        self._model = model
+        self._mjm = mjm
+        self._hfield_geoms = torch.as_tensor(
+            [g for g in range(mjm.ngeom) if mjm.geom_type[g] == mujoco.mjtGeom.mjGEOM_HFIELD], dtype=torch.long)
+        dataid = getattr(model, "geom_dataid", None)
+        self._per_world_hfields = (len(self._hfield_geoms) > 0 and mjm.nhfield > 1 and dataid is not None
+                                   and dataid.shape[0] > 1)
+        self._hfields_built = {int(h) for h in mjm.geom_dataid[self._hfield_geoms.numpy()] if h >= 0}
         self._cam_xpos_t = wp.to_torch(self._cam_xpos)
         self._cam_xmat_t = wp.to_torch(self._cam_xmat)
         self._rgb_t = wp.to_torch(self._rgb)  # [n, H, W, 3] float in [0, 1]
@@ -144,23 +193,56 @@ class WorldRenderer:
         self._target = torch.tensor(camera.target, dtype=torch.float32, device=dev)
         self._up = torch.tensor(camera.up, dtype=torch.float32, device=dev)
 
+    def _gathered(self, field: wp.array, n: int) -> wp.array:
+        """A renderer-owned array of ``n`` worlds shaped like ``field``, refreshed from the chosen worlds' rows of
+        ``field`` at every frame."""
+        out = wp.zeros((n, *field.shape[1:]), dtype=field.dtype, device=field.device)
+        if out.size > 0:
+            self._gather.append((wp.to_torch(field), wp.to_torch(out)))
+        return out
+
+    def _ensure_hfield_bvhs(self) -> None:
+        """Build the ray-tracing BVH of every heightfield that a rendered world selects and that has none yet."""
+        if not self._per_world_hfields:
+            return
+        ids = wp.to_torch(self._model.geom_dataid)[: self.nworld, self._hfield_geoms.to(self.device)]
+        missing = sorted({int(h) for h in ids.reshape(-1).tolist() if h >= 0} - self._hfields_built)
+        if not missing:
+            return
+        from mujoco_warp._src import bvh as mjw_bvh  # the render context's own heightfield BVH builder
+
+        bvh_ids, half = self._rc.hfield_bvh_id.numpy(), self._rc.hfield_bounds_size.numpy()
+        with wp.ScopedDevice(self.sim.wp_device):
+            for h in missing:
+                mesh, size = mjw_bvh.build_hfield_bvh(self._mjm, h)
+                self._rc.hfield_registry[mesh.id] = mesh  # keeps the mesh alive
+                bvh_ids[h], half[h] = mesh.id, size
+        self._rc.hfield_bvh_id.assign(bvh_ids)
+        self._rc.hfield_bounds_size.assign(half)
+        self._hfields_built.update(missing)
+
     def _place_camera(self) -> None:
         eye, target = self._eye.expand(self.nworld, 3), self._target.expand(self.nworld, 3)
         if self._track_body >= 0:
-            base = self.sim.xpos[: self.nworld, self._track_body]
+            xpos = self.sim.xpos if self._worlds is None else self.sim.xpos[self._worlds]
+            base = xpos[: self.nworld, self._track_body]
             eye, target = base + eye, base + target
         self._cam_xpos_t[:, 0] = eye
         self._cam_xmat_t[:, 0] = look_at(eye, target, self._up)
 
     def render(self) -> torch.Tensor:
-        """Render the current state: uint8 ``[nworld, H, W, 3]`` on the sim's device (no host sync)."""
+        """Render the current state: uint8 ``[nworld, H, W, 3]`` on the sim's device (no host sync, except the
+        heightfield check of models with per-world heightfields)."""
+        for source, target in self._gather:
+            torch.index_select(source, 0, self._worlds, out=target)
+        self._ensure_hfield_bvhs()
         self._place_camera()
         stream = None
         if self.device.type == "cuda":  # after the env's work, which is joined into torch's current stream
             stream = wp.stream_from_torch(torch.cuda.current_stream(self.device))
         with wp.ScopedDevice(self.sim.wp_device), wp.ScopedStream(stream) if stream is not None else nullcontext():
-            mjw.refit_bvh(self.sim.model, self._data, self._rc)
-            mjw.render(self.sim.model, self._data, self._rc)
+            mjw.refit_bvh(self._model, self._data, self._rc)
+            mjw.render(self._model, self._data, self._rc)
             mjw.get_rgb(self._rc, 0, self._rgb)
         return (self._rgb_t.clamp(0.0, 1.0) * 255.0).round_().to(torch.uint8)
 
@@ -187,10 +269,28 @@ def env_camera(env: Any) -> CameraSpec:
     return METAWORLD_CAMERA if spec is None else CameraSpec.from_any(spec)
 
 
-class EnvRenderer:
-    """Frames of the first ``worlds_per_task`` worlds of every task block of an mtbench env.
+def task_worlds(env: Any, worlds_per_task: int) -> torch.Tensor:
+    """Indices ``[num_tasks, worlds_per_task]`` of the first worlds of every task of an env whose tasks share one
+    simulator (``env.task_id``), for the tasks that have worlds; ``ValueError`` if one has fewer."""
+    task_id = torch.as_tensor(env.task_id).reshape(-1).cpu()
+    rows = []
+    for task in torch.unique(task_id).tolist():
+        worlds = torch.nonzero(task_id == task).reshape(-1)
+        if len(worlds) < worlds_per_task:
+            raise ValueError(f"worlds_per_task must be in [1, {len(worlds)}] (the worlds of task {task}), "
+                             f"got {worlds_per_task}")
+        rows.append(worlds[:worlds_per_task])
+    return torch.stack(rows)
 
-    ``render()`` returns uint8 ``[num_tasks, worlds_per_task, H, W, 3]`` on the env's device.
+
+class EnvRenderer:
+    """Frames of the first ``worlds_per_task`` worlds of every task block of an mtbench env: one
+    :class:`WorldRenderer` per task block (envs of per-task scenes, ``env.blocks``: Meta-World), or one over the
+    chosen worlds of the env's one simulator (``env.sim`` with ``env.task_id``: Parkour; tasks without worlds are
+    left out).
+
+    ``render()`` returns uint8 ``[num_tasks, worlds_per_task, H, W, 3]`` on the env's device; ``task_ids`` lists
+    the rendered tasks in that order.
     """
 
     def __init__(
@@ -203,15 +303,32 @@ class EnvRenderer:
         camera: CameraSpec | None = None,
         shadows: bool = True,
     ) -> None:
-        sims = block_sims(env)
-        fewest = min(s.nworld for s in sims)
-        if not 1 <= worlds_per_task <= fewest:
-            raise ValueError(f"worlds_per_task must be in [1, {fewest}] (the smallest task block), "
-                             f"got {worlds_per_task}")
         camera = camera if camera is not None else env_camera(env)
-        self.renderers = [WorldRenderer(s, worlds_per_task, width, height, camera, shadows=shadows) for s in sims]
+        self.worlds_per_task = int(worlds_per_task)
+        if worlds_per_task < 1:
+            raise ValueError(f"worlds_per_task must be >= 1, got {worlds_per_task}")
+        self._shared = getattr(env, "blocks", None) is None and isinstance(getattr(env, "sim", None), WarpSim)
+        if self._shared:
+            worlds = task_worlds(env, self.worlds_per_task)
+            self.task_ids = torch.unique(torch.as_tensor(env.task_id).reshape(-1).cpu()).tolist()
+            self.renderers = [WorldRenderer(env.sim, worlds.numel(), width, height, camera, shadows=shadows,
+                                            worlds=worlds.reshape(-1))]
+        else:
+            sims = block_sims(env)
+            fewest = min(s.nworld for s in sims)
+            if not worlds_per_task <= fewest:
+                raise ValueError(f"worlds_per_task must be in [1, {fewest}] (the smallest task block), "
+                                 f"got {worlds_per_task}")
+            self.task_ids = list(range(len(sims)))
+            self.renderers = [WorldRenderer(s, worlds_per_task, width, height, camera, shadows=shadows)
+                              for s in sims]
+        self.num_tasks = len(self.task_ids)
+        self.device = self.renderers[0].device
 
     def render(self) -> torch.Tensor:
+        if self._shared:
+            frames = self.renderers[0].render()
+            return frames.reshape(self.num_tasks, self.worlds_per_task, *frames.shape[1:])
         return torch.stack([r.render() for r in self.renderers])
 
 
@@ -226,5 +343,5 @@ def tile(frames: torch.Tensor, grid: int) -> torch.Tensor:
     return x.reshape(*lead, grid * h, grid * w, c)
 
 
-__all__ = ["CameraSpec", "EnvRenderer", "METAWORLD_CAMERA", "WorldRenderer", "block_sims",
-           "env_camera", "look_at", "tile"]
+__all__ = ["CameraSpec", "EnvRenderer", "METAWORLD_CAMERA", "RENDER_DATA_FIELDS", "RENDER_MODEL_FIELDS",
+           "WorldRenderer", "block_sims", "env_camera", "look_at", "task_worlds", "tile"]

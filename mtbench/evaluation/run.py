@@ -21,6 +21,7 @@ from .video import VideoRecorder, contact_sheet, write_png, write_video
 DEFAULT_VIDEO_FRAMES = 150
 VIDEO_SIZE_CUDA = (320, 240)
 VIDEO_SIZE_CPU = (160, 120)
+SHEET_COLUMNS = 7  # frames per row of videos/frames.png
 
 
 @dataclasses.dataclass
@@ -80,18 +81,19 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
         steps = int(env.max_episode_steps)
         counts = worlds_per_task(env)
         recorder = None
-        if args.video and getattr(env, "blocks", None) is None:
-            raise EvalArgumentError(f"video=true renders envs made of per-task MuJoCo Warp scenes (Meta-World); "
-                                    f"{type(env).__name__} has none: run with video=false")
+        if args.video and getattr(env, "blocks", None) is None and getattr(env, "sim", None) is None:
+            raise EvalArgumentError(f"video=true renders envs simulated by MuJoCo Warp (Meta-World, Parkour); "
+                                    f"{type(env).__name__} has no simulator to render: run with video=false")
         if args.video:
             frames = args.video_frames if args.video_frames is not None else min(DEFAULT_VIDEO_FRAMES, steps)
             if not 1 <= frames <= steps:
                 raise EvalArgumentError(f"video_frames={frames} is out of range; video_frames must be an integer in "
                                         f"[1, {steps}] (the episode length)")
-            if args.video_grid ** 2 > min(counts):
+            fewest = min(c for c in counts if c > 0)
+            if args.video_grid ** 2 > fewest:
                 raise EvalArgumentError(
                     f"video_grid={args.video_grid} needs {args.video_grid ** 2} worlds per task, the smallest task "
-                    f"block has {min(counts)}; use video_grid=1 or more episodes / num_envs"
+                    f"block has {fewest}; use video_grid=1 or more episodes / num_envs"
                 )
             width, height = args.video_size or (VIDEO_SIZE_CUDA if device.type == "cuda" else VIDEO_SIZE_CPU)
             recorder = VideoRecorder(env, frames, width, height, grid=args.video_grid)
@@ -137,11 +139,13 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
         clips = None
         if recorder is not None:
             clips = recorder.videos()
-            for name, clip in zip(env.task_names, clips):
+            names = [env.task_names[i] for i in recorder.task_ids]
+            for name, clip in zip(names, clips):
                 videos[name] = write_video(out / "videos" / name, clip, args.video_fps)
             middle = clips.shape[1] // 2
-            labels = [f"{name} (step {middle})" for name in env.task_names]
-            frames_png = write_png(out / "videos" / "frames.png", contact_sheet(list(clips[:, middle].numpy()), labels))
+            labels = [f"{name} (step {middle})" for name in names]
+            sheet = contact_sheet(list(clips[:, middle].numpy()), labels, columns=min(len(labels), SHEET_COLUMNS))
+            frames_png = write_png(out / "videos" / "frames.png", sheet)
             info["videos"] = {k: str(v) for k, v in videos.items()}
             info["video"] = {"frames": int(clips.shape[1]), "size": list(clips.shape[2:4][::-1]),
                              "grid": args.video_grid, "fps": args.video_fps, "policy": "deterministic",

@@ -14,7 +14,8 @@ from .render import CameraSpec, EnvRenderer, tile
 
 
 class VideoRecorder:
-    """Frames of the first ``grid * grid`` worlds of every task during the first ``frames`` steps of an episode.
+    """Frames of the first ``grid * grid`` worlds of every task (every task with worlds, ``task_ids``) during the first
+    ``frames`` steps of an episode.
 
     ``capture(t)`` renders the current state into frame ``t`` (on the env's device, no host sync);
     ``videos()`` returns uint8 ``[num_tasks, frames, H * grid, W * grid, 3]`` on the CPU.
@@ -26,8 +27,9 @@ class VideoRecorder:
             raise ValueError(f"frames must be >= 1, got {frames}")
         self.frames, self.grid = int(frames), int(grid)
         self.renderer = EnvRenderer(env, width, height, worlds_per_task=grid * grid, camera=camera)
-        self.num_tasks = len(self.renderer.renderers)
-        device = self.renderer.renderers[0].device
+        self.num_tasks = self.renderer.num_tasks
+        self.task_ids = self.renderer.task_ids  # the rendered tasks, in the order of the videos
+        device = self.renderer.device
         self._buffer = torch.zeros(self.frames, self.num_tasks, grid * grid, height, width, 3, dtype=torch.uint8,
                                    device=device)
         self.captured = 0

@@ -26,13 +26,24 @@ def _overrides(argv: Sequence[str]) -> dict[str, str]:
     return {a.split("=", 1)[0].lstrip("+~"): a.split("=", 1)[1] for a in args}
 
 
+def _config_name(argv: Sequence[str]) -> str | None:
+    """The ``--config-name``/``-cn`` given on the command line, if any."""
+    for i, arg in enumerate(argv):
+        if arg in ("--config-name", "-cn") and i + 1 < len(argv):
+            return argv[i + 1]
+        if arg.startswith("--config-name="):
+            return arg.split("=", 1)[1]
+    return None
+
+
 def cpu_default_overrides(argv: Sequence[str], cuda_available: bool | None = None) -> list[str]:
     """Extra Hydra overrides for a CPU run: without an explicit ``env=...`` and when the run will be on the CPU
-    (``device=cpu``, or ``auto`` without CUDA), train the small real configuration ``env=cpu_small``."""
+    (``device=cpu``, or ``auto`` without CUDA), train the small real configuration ``env=cpu_small``. A config chosen
+    with ``--config-name`` (e.g. a ``conf/paper`` row) keeps its own env."""
     if cuda_available is None:
         cuda_available = torch.cuda.is_available()
     given = _overrides(argv)
-    if "env" in given:
+    if "env" in given or _config_name(argv) not in (None, "config"):
         return []
     device = given.get("device", "auto")
     on_cpu = device == "cpu" or (device == "auto" and not cuda_available)

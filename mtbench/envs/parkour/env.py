@@ -101,6 +101,9 @@ class ParkourEnv(EnvBase):
 
     _torchrl_native_autoreset = True
     success_metric = "progress"
+    #: evaluation videos (``mtbench.evaluation.CameraSpec`` fields): following the trunk from behind and to its
+    #: right, above the tile's 0.5 m side walls, looking at the ground ahead (the robot walks left to right)
+    video_camera = {"eye": (-1.0, -2.8, 1.6), "target": (1.0, 0.0, -0.2), "track_body": robot.BASE_BODY}
 
     def __init__(
         self,

@@ -38,6 +38,7 @@ TERRAIN_FRICTION = 1.0  # the original's terrain material (robot geoms have prio
 # on the GPU the solver exits early through a conditional graph node)
 SOLVER_ITERATIONS = 10
 LS_ITERATIONS = 20
+SUN_DIRECTION = (0.4, 0.3, -1.0)  # the scene's directional light (rendering only)
 
 
 @dataclass(frozen=True)
@@ -136,6 +137,10 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
         pos=[origin[0] + rx, origin[1] + ry, h_min], contype=0, conaffinity=robot.ROBOT_BIT, condim=3,
         friction=[TERRAIN_FRICTION, 0.005, 0.0001], group=0, rgba=[0.55, 0.5, 0.45, 1.0],
     )
+    # for rendering only (evaluation videos): a sun from above and behind (the robot walks along +x); no physics
+    spec.worldbody.add_light(name="sun", type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, pos=[0.0, 0.0, 10.0],
+                             dir=list(SUN_DIRECTION), diffuse=[0.8, 0.8, 0.8], ambient=[0.3, 0.3, 0.3],
+                             specular=[0.1, 0.1, 0.1], castshadow=True)
     mjm = spec.compile()
     for k, piece in enumerate(pieces):
         adr = mjm.hfield_adr[k]
