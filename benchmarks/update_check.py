@@ -7,6 +7,7 @@ the graphed update against the eager one from the same state.
     python benchmarks/update_check.py --device cpu --num-envs 16 --minibatch-size 128   # plumbing only
     python benchmarks/update_check.py --loss sac --grads none pcgrad    # MT-SAC: the draw from the full buffer
     python benchmarks/update_check.py --loss sac --device cpu --num-envs 16 --grads none --minibatch-size 32
+    python benchmarks/update_check.py --grads none famo --epochs 3 --override loss.lr_schedule=adaptive  # KL reference
 
 For each gradient method the real training stack is built (``conf/`` + ``build_trainer``, ``--loss`` on ``--env``),
 one rollout is collected and its advantages (PQN: Peng's Q(lambda) targets) computed; then, from one saved state
@@ -136,6 +137,7 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     ]
     if args.diagnostics_every is not None:  # else the grad preset's (measured between graph replays)
         overrides.append(f"grad.diagnostics_every={args.diagnostics_every}")
+    overrides += list(args.override)
     if args.loss == "sac":
         return check_sac(grad, args, device, overrides)
     with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
@@ -147,14 +149,16 @@ def check(grad: str, args: argparse.Namespace, device: torch.device) -> bool:
     start = _state(trainer)
     before = _params(trainer)
 
-    means_g, count = graphed.epochs(flat, args.epochs, trainer.minibatch_size)
+    # each run on its own copy of the batch: with loss.lr_schedule_type=standard the update rewrites its loc/scale
+    means_g, count = graphed.epochs(flat.clone(), args.epochs, trainer.minibatch_size)
     after_graph = _params(trainer)
     eager_runs = []
     for _ in range(2):
         _restore(trainer, start)
         eager = MinibatchUpdate(graphed.update_module, trainer.optimizer, max_grad_norm=graphed.max_grad_norm,
-                                call_hooks=graphed.call_hooks, graph=False, device=graphed.device)
-        means_e, _ = eager.epochs(flat, args.epochs, trainer.minibatch_size)
+                                call_hooks=graphed.call_hooks, graph=False, device=graphed.device,
+                                kl_reference=graphed.kl_reference)
+        means_e, _ = eager.epochs(flat.clone(), args.epochs, trainer.minibatch_size)
         eager_runs.append(_params(trainer))
     trainer.env.close()
 
@@ -194,6 +198,9 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--diagnostics-every", type=int, default=None,
                    help="override grad.diagnostics_every (default: the grad preset's; 1 = measure before every update)")
     p.add_argument("--device", default="cuda")
+    p.add_argument("--override", action="append", default=[],
+                   help="extra Hydra override, repeatable (e.g. loss.lr_schedule=adaptive: the KL reference of "
+                        "loss.lr_schedule_type=standard, written back by the graphed update)")
     p.add_argument("--linalg", default=None, choices=["default", "cusolver", "magma"],
                    help="torch.backends.cuda.preferred_linalg_library (CAGrad's KKT solve: lu_factor / lu_solve)")
     args = p.parse_args(argv)

@@ -219,6 +219,7 @@ class WorldRenderer:
                 bvh_ids[h], half[h] = mesh.id, size
         self._rc.hfield_bvh_id.assign(bvh_ids)
         self._rc.hfield_bounds_size.assign(half)
+        wp.synchronize_device(self.sim.wp_device)  # the copies before the render, which runs on torch's stream
         self._hfields_built.update(missing)
 
     def _place_camera(self) -> None:
