@@ -253,3 +253,16 @@ def test_bad_checkpoints_and_sizes_are_refused(checkpoint: Path, tmp_path: Path,
                 f"video_frames must be an integer in [1, {EPISODE_STEPS}]")
     assert expected in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_passes_count_only_tasks_with_worlds() -> None:
+    """A Parkour flat pre-training checkpoint has worlds for one of its 21 task slots: the passes are counted over
+    the tasks that have worlds (a task without worlds needs no episode)."""
+    from types import SimpleNamespace
+
+    from mtbench.evaluation.episodes import passes_needed, worlds_per_task
+
+    flat = SimpleNamespace(task_counts=[0] * 20 + [4])
+    assert worlds_per_task(flat) == [0] * 20 + [4]
+    assert passes_needed(flat, 10) == 3 and passes_needed(flat, 4) == 1
+    assert passes_needed(SimpleNamespace(task_counts=[3, 2, 5]), 5) == 3  # the smallest block sets the passes
