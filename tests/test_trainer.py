@@ -215,6 +215,21 @@ def test_resume_refuses_a_different_configuration(tmp_path: Path) -> None:
         build_trainer(_cfg(tmp_path, "loss.horizon=4", f"resume={tmp_path / 'ckpt' / 'final.pt'}"), env=_env())
 
 
+def test_resume_refuses_another_action_clipping(tmp_path: Path) -> None:
+    """``loss.clip_actions`` adds an env transform: a run resumes only with the setting it was trained with; a
+    checkpoint written before the key existed counts as ``false``."""
+    build_trainer(_cfg(tmp_path, "max_iterations=1"), env=_env()).train()
+    final = tmp_path / "ckpt" / "final.pt"
+    with pytest.raises(ValueError, match=r"loss\.clip_actions: checkpoint=False current=True"):
+        build_trainer(_cfg(tmp_path, "loss.clip_actions=true", f"resume={final}"), env=_env())
+    state = load_checkpoint(final)
+    del state["config"]["loss"]["clip_actions"]  # as written before 2026-11-28
+    old = save_checkpoint(tmp_path / "old.pt", state)
+    assert build_trainer(_cfg(tmp_path, "max_iterations=2", f"resume={old}"), env=_env()).iteration == 1
+    with pytest.raises(ValueError, match=r"loss\.clip_actions: checkpoint=False current=True"):
+        build_trainer(_cfg(tmp_path, "loss.clip_actions=true", f"resume={old}"), env=_env())
+
+
 def test_resume_refuses_another_reward_version_and_logs_it(tmp_path: Path) -> None:
     logger = RecordingLogger()
     paper = _env()

@@ -67,7 +67,10 @@ class TrainingLoop:
     """
 
     #: config keys whose mismatch between a checkpoint and the current config makes a resume meaningless
-    resume_keys: tuple[str, ...] = ("env.name", "env.num_envs", "loss.name", "loss.horizon", "arch.name", "grad.name")
+    resume_keys: tuple[str, ...] = ("env.name", "env.num_envs", "loss.name", "loss.horizon", "arch.name", "grad.name",
+                                    "loss.clip_actions")
+    #: the value of a resume key in a config that lacks it (a checkpoint written before the key existed)
+    resume_defaults: dict[str, Any] = {"loss.clip_actions": False}
 
     def __init__(
         self,
@@ -278,7 +281,9 @@ class TrainingLoop:
         if self.config is not None and state.get("config") is not None:
             saved = OmegaConf.create(state["config"])
             for key in self.resume_keys:
-                a, b = OmegaConf.select(saved, key), OmegaConf.select(self.config, key)
+                default = self.resume_defaults.get(key)
+                a = OmegaConf.select(saved, key, default=default)
+                b = OmegaConf.select(self.config, key, default=default)
                 if a != b:
                     diffs.append(f"{key}: checkpoint={a!r} current={b!r}")
         for key, value in self.env_info().items():
