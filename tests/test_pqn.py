@@ -532,6 +532,26 @@ def test_hold_observation_acts_on_and_stores_the_first_observation_of_the_rollou
     torch.testing.assert_close(trainer.advantage(first)["value_target"][..., 0], expected)
 
 
+def test_hold_period_takes_the_observation_afresh_every_k_steps(tmp_path: Path) -> None:
+    """``loss.hold_period=3`` with 8-step rollouts: steps 0-2 act on, and store, the observation of step 0, steps 3-5
+    that of step 3 (the true current one then), steps 6-7 that of step 6; the greedy action follows the held
+    observation."""
+    trainer = build_trainer(_cfg(tmp_path, "loss.hold_observation=true", "loss.hold_period=3"), env=_env())
+    assert trainer.rollout.hold_period == 3
+    trainer.policy[-1].eps.fill_(0.0)
+    first = trainer.rollout.collect().clone()
+    obs, nxt, done = first["observation"], first["next", "observation"], first["next", "done"][..., 0]
+    for t in range(8):
+        assert torch.equal(obs[:, t], obs[:, 3 * (t // 3)]), t
+    for start in (3, 6):  # a new hold: the true observation after step start - 1 (or the reset one after a done)
+        keep = ~done[:, start - 1]
+        assert keep.any() and torch.equal(obs[keep, start], nxt[keep, start - 1])
+        assert not torch.equal(obs[:, start], obs[:, start - 1])
+    with torch.no_grad():
+        greedy = trainer.policy[0](first.select("observation", "task_id").clone())["action_value"].argmax(-1)
+    assert torch.equal(first["action"], greedy)
+
+
 def test_per_step_observation_is_the_default(tmp_path: Path) -> None:
     """Without ``hold_observation`` every step acts on, and stores, its own observation, and the targets bootstrap
     ``V(s_{t+1})``."""
@@ -567,7 +587,8 @@ class StopAt(TrainerHook):
             os.kill(os.getpid(), signal.SIGINT)
 
 
-@pytest.mark.parametrize("mtbench", [(), ("loss.hold_observation=true", "loss.epsilon_clock=mtbench")])
+@pytest.mark.parametrize("mtbench", [(), ("loss.hold_observation=true", "loss.epsilon_clock=mtbench"),
+                                     ("loss.hold_observation=true", "loss.hold_period=2")])
 def test_resume_is_exact_between_iterations_and_inside_a_rollout(tmp_path: Path, mtbench: tuple[str, ...]) -> None:
     """Also with MTBench's held observation (restored from the interrupted rollout's first step) and epsilon clock
     (inside a rollout only: the part the held observation changes)."""
@@ -742,6 +763,9 @@ def test_cudagraph_update_resolves_for_pqn(tmp_path: Path) -> None:
         ("loss.anneal_lr=maybe", "loss.anneal_lr must be true or false"),
         ("loss.epsilon_clock=steps", r"unknown loss.epsilon_clock 'steps'; valid choices: \['frames', 'mtbench'\]"),
         ("loss.hold_observation=maybe", "loss.hold_observation must be true or false"),
+        ("loss.hold_period=9", r"loss.hold_period must be an integer in \[1, loss.horizon=8\] or null \(the whole "
+                               r"rollout\); got 9"),
+        ("loss.hold_period=0", r"loss.hold_period must be an integer in \[1, loss.horizon=8\]"),
         ("loss.loss_function=huber", r"unknown loss.loss_function 'huber'; valid choices: \['l2', 'l1', 'smooth_l1"),
         ("loss.name=dqn", r"unknown loss.name 'dqn'; valid choices: \[.*'pqn'.*\]"),
         ("cudagraph_update=true", r"cudagraph_update=true needs a CUDA device \(device=cpu\)"),

@@ -141,6 +141,9 @@ def test_a_hold_observation_run_holds_the_greedy_action_for_horizon_steps(run) -
     loss = {**state["config"]["loss"], "hold_observation": True, "horizon": 3}
     policy = load_policy({**state, "config": {**state["config"], "loss": loss}}, spec_env, torch.device("cpu"))
     assert policy.hold_steps == 3
+    periodic = {**loss, "horizon": 8, "hold_period": 3}  # loss.hold_period: the hold of the run's rollouts
+    assert load_policy({**state, "config": {**state["config"], "loss": periodic}}, spec_env,
+                       torch.device("cpu")).hold_steps == 3
     tds = [_observations(seed) for seed in range(8)]
     greedy = [_trained_greedy_bins(trainer, td) for td in tds]
     assert not torch.equal(greedy[0], greedy[1])  # the observations call for different actions

@@ -26,9 +26,10 @@ class EvalQPolicy(nn.Module):
     bins, or with ``values`` (``[A, bins]``: the continuous value of every bin) their values for a continuous-action
     env. The input tensordict is not modified.
 
-    ``hold_steps`` > 1 (a run with ``loss.hold_observation``: ``loss.horizon``) acts as that run's rollouts did: the
-    greedy action is computed from the observation of every ``hold_steps``-th call (the first after :meth:`reset`)
-    and kept for the calls in between; epsilon-greedy exploration still draws at every call."""
+    ``hold_steps`` > 1 (a run with ``loss.hold_observation``: ``loss.hold_period``, by default ``loss.horizon``) acts
+    as that run's rollouts did: the greedy action is computed from the observation of every ``hold_steps``-th call
+    (the first after :meth:`reset`) and kept for the calls in between; epsilon-greedy exploration still draws at
+    every call."""
 
     def __init__(self, q_network: nn.Module, obs_norm: PerTaskObservationNorm | None, bins: int, epsilon: float,
                  values: torch.Tensor | None = None, hold_steps: int = 1) -> None:
@@ -112,7 +113,7 @@ def load_q_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> E
         action_dim = int(spec.shape[-1])
         low, high = spec.low.reshape(-1, action_dim)[0, :, None], spec.high.reshape(-1, action_dim)[0, :, None]
         values = low + (high - low) * bin_values(bins, 0.0, 1.0).to(low)
-    hold_steps = int(cfg.loss.horizon) if cfg.loss.get("hold_observation", False) else 1
+    hold_steps = int(cfg.loss.get("hold_period") or cfg.loss.horizon) if cfg.loss.get("hold_observation", False) else 1
     policy = EvalQPolicy(q_network, obs_norm, bins, float(cfg.loss.end_epsilon), values, hold_steps)
     return policy.to(device)
 

@@ -287,6 +287,7 @@ def build_trainer(
         cudagraph_policy=bool(cfg.get("cudagraphs", False)),
         cudagraph_update=graph_update,
         hold_keys=pqn_hold_keys(cfg.loss, actor) if cfg.loss.name == "pqn" else (),
+        hold_period=cfg.loss.get("hold_period") if cfg.loss.name == "pqn" else None,
         kl_reference=uses_epoch_kl_reference(cfg.loss),
         config=cfg,
     )

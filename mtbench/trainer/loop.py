@@ -86,6 +86,7 @@ class TrainingLoop:
         success_window: int = 5,
         cudagraph_policy: bool = False,
         hold_keys: Sequence[NestedKey] = (),
+        hold_period: int | None = None,
         config: DictConfig | None = None,
     ) -> None:
         self.env = env
@@ -100,7 +101,8 @@ class TrainingLoop:
         self.update_module = update_module if update_module is not None else loss
         self.optimizer = optimizer
         self.config = config
-        self.rollout = Rollout(env, policy, horizon, cudagraph_policy=cudagraph_policy, hold_keys=hold_keys)
+        self.rollout = Rollout(env, policy, horizon, cudagraph_policy=cudagraph_policy, hold_keys=hold_keys,
+                               hold_period=hold_period)
         self.horizon = self.rollout.horizon
         self.num_envs = self.rollout.num_envs
         self.frames_per_batch = self.num_envs * self.horizon

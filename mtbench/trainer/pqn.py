@@ -53,6 +53,11 @@ def check_pqn_config(lc: Mapping[str, Any]) -> None:
                          f"{list(EPSILON_CLOCKS)}")
     if not isinstance(lc.get("hold_observation", False), bool):
         raise ValueError(f"loss.hold_observation must be true or false; got {lc.get('hold_observation')!r}")
+    period, horizon = lc.get("hold_period"), lc.get("horizon")
+    if period is not None and not (isinstance(period, int) and not isinstance(period, bool)
+                                   and isinstance(horizon, int) and 1 <= period <= horizon):
+        raise ValueError(f"loss.hold_period must be an integer in [1, loss.horizon={horizon}] or null (the whole "
+                         f"rollout); got {period!r}")
     if not isinstance(lc.get("anneal_lr"), bool):
         raise ValueError(f"loss.anneal_lr must be true or false; got {lc.get('anneal_lr')!r}")
     if lc.get("loss_function") not in LOSS_FUNCTIONS:

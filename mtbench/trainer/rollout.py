@@ -52,6 +52,8 @@ class Rollout:
             loop never refreshes its observation: ``loss.hold_observation``). The env is unaffected: the carried
             state and the ``("next", ...)`` entries keep the true observations, so the next rollout starts from
             the true current one. Held across episode ends inside the rollout, as MTBench. ``()``: none.
+        hold_period: with ``hold_keys``, the held entries are taken afresh every ``hold_period`` steps (at steps 0,
+            ``hold_period``, ...) instead of once per rollout (``None``: ``horizon``, MTBench's behaviour).
     """
 
     def __init__(
@@ -62,9 +64,12 @@ class Rollout:
         *,
         cudagraph_policy: bool | dict[str, Any] = False,
         hold_keys: Sequence[NestedKey] = (),
+        hold_period: int | None = None,
     ) -> None:
         if int(horizon) < 1:
             raise ValueError(f"horizon must be >= 1, got {horizon}")
+        if hold_period is not None and not 1 <= int(hold_period) <= int(horizon):
+            raise ValueError(f"hold_period must be in [1, {int(horizon)}] (the horizon) or None, got {hold_period}")
         ensure_native_autoreset(env)
         if not base_env(env).__dict__.get("_torchrl_native_autoreset", False):
             raise ValueError(f"{type(base_env(env)).__name__} does not use TorchRL native autoreset "
@@ -80,6 +85,7 @@ class Rollout:
             options = {"warmup": 10, **(cudagraph_policy if isinstance(cudagraph_policy, dict) else {})}
             self.policy = CudaGraphModule(policy, in_keys=[], out_keys=[], device=env.device, **options)
         self.hold_keys = list(hold_keys)
+        self.hold_period = self.horizon if hold_period is None else int(hold_period)
         self._carry: TensorDictBase | None = None
         self._steps: list[TensorDictBase] = []
         self._buffer: TensorDictBase | None = None
@@ -115,10 +121,14 @@ class Rollout:
         """
         td = self._carry if self._carry is not None else self.env.reset()
         steps = self._steps
-        # the held entries: those of the rollout's first step (an interrupted rollout stored them at its step 0)
-        held = (steps[0] if steps else td).select(*self.hold_keys).clone() if self.hold_keys else None
+        # the held entries: those of the first step of the current hold (an interrupted rollout stored them there)
+        held = None
+        if self.hold_keys and len(steps) % self.hold_period:
+            held = steps[len(steps) - len(steps) % self.hold_period].select(*self.hold_keys).clone()
         while len(steps) < self.horizon:
-            if held is not None:
+            if self.hold_keys:
+                if len(steps) % self.hold_period == 0:  # a hold starts: the true current entries
+                    held = td.select(*self.hold_keys).clone()
                 td = td.clone(False).update(held)  # a shallow copy: the carried state keeps the true entries
             td = self._act(td)
             td, td_next = self.env.step_and_maybe_reset(td)

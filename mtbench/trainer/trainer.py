@@ -59,6 +59,8 @@ class Trainer(TrainingLoop):
         cudagraph_update: replay each minibatch update from a CUDA graph.
         hold_keys: root entries that keep their first-step value for the whole rollout (MT-PQN's
             ``loss.hold_observation``; :class:`~mtbench.trainer.rollout.Rollout`).
+        hold_period: with ``hold_keys``, take the held entries afresh every ``hold_period`` steps (``None``: once
+            per rollout; ``loss.hold_period``).
         kl_reference: after every minibatch update, write the policy's distribution on that minibatch before the
             step (the loss's ``loc``/``scale`` keys) into the batch (rl_games' ``update_mu_sigma``), so that from
             the second epoch on the loss's ``kl`` measures the change over one epoch, not the distance to the
@@ -84,13 +86,14 @@ class Trainer(TrainingLoop):
         cudagraph_policy: bool = False,
         cudagraph_update: bool = False,
         hold_keys: Sequence[NestedKey] = (),
+        hold_period: int | None = None,
         kl_reference: bool = False,
         config: DictConfig | None = None,
     ) -> None:
         super().__init__(
             env, policy, loss, optimizer, horizon=horizon, total_iterations=total_iterations,
             update_module=update_module, hooks=hooks, success_window=success_window,
-            cudagraph_policy=cudagraph_policy, hold_keys=hold_keys, config=config,
+            cudagraph_policy=cudagraph_policy, hold_keys=hold_keys, hold_period=hold_period, config=config,
         )
         if int(epochs) < 1:
             raise ValueError(f"loss.epochs must be >= 1, got {epochs}")
