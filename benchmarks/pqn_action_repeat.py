@@ -69,7 +69,7 @@ def success_rates(tasks: Sequence[str], worlds: int, mode: str, hold: int = 1, s
         if mode == "bang" and hold == 1:
             action = diffuse(action)
         elif mode == "bang":
-            if held is None or t % hold == 0:
+            if t % hold == 0:
                 held = bang_off_bang(action)
             action = held
         td["action"] = action

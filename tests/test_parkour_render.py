@@ -57,7 +57,8 @@ def test_chosen_worlds_render_exactly_as_among_all_worlds(env: Any) -> None:
 def test_env_renderer_groups_the_frames_by_task(env: Any) -> None:
     renderer = EnvRenderer(env, W, H, worlds_per_task=2)
     assert renderer.task_ids == [6, 15, 20] and renderer.num_tasks == 3
-    assert task_worlds(env, 2).tolist() == [[0, 1], [2, 3], [4, 5]]
+    tasks, worlds = task_worlds(env, 2)
+    assert tasks == [6, 15, 20] and worlds.tolist() == [[0, 1], [2, 3], [4, 5]]
     frames = renderer.render()
     everything = WorldRenderer(env.sim, 6, W, H, env_camera(env)).render()
     assert torch.equal(frames, everything.reshape(3, 2, H, W, 3))

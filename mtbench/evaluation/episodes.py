@@ -68,9 +68,15 @@ def worlds_per_task(env: Any) -> list[int]:
     return [int(c) for c in counts]
 
 
+def fewest_worlds(env: Any) -> int:
+    """The worlds of the smallest task block among the tasks that have worlds (Parkour's flat stage fills one of its
+    21 task slots)."""
+    return min(c for c in worlds_per_task(env) if c > 0)
+
+
 def passes_needed(env: Any, episodes: int) -> int:
     """Passes of one episode per world so that every task (with worlds) finishes at least ``episodes`` episodes."""
-    return max(1, math.ceil(episodes / min(c for c in worlds_per_task(env) if c > 0)))
+    return max(1, math.ceil(episodes / fewest_worlds(env)))
 
 
 def run_episodes(
@@ -134,4 +140,5 @@ def run_episodes(
     )
 
 
-__all__ = ["EXTRA_STAT_KEYS", "EvalResult", "STAT_KEYS", "passes_needed", "run_episodes", "worlds_per_task"]
+__all__ = ["EXTRA_STAT_KEYS", "EvalResult", "STAT_KEYS", "fewest_worlds", "passes_needed", "run_episodes",
+           "worlds_per_task"]

@@ -179,12 +179,12 @@ class WorldRenderer:
                                          **gathered_data)
         self._model = model
         self._mjm = mjm
-        self._hfield_geoms = torch.as_tensor(
-            [g for g in range(mjm.ngeom) if mjm.geom_type[g] == mujoco.mjtGeom.mjGEOM_HFIELD], dtype=torch.long)
+        hfield_geoms = [g for g in range(mjm.ngeom) if mjm.geom_type[g] == mujoco.mjtGeom.mjGEOM_HFIELD]
+        self._hfield_geoms = torch.as_tensor(hfield_geoms, dtype=torch.long, device=self.device)
         dataid = getattr(model, "geom_dataid", None)
         self._per_world_hfields = (len(self._hfield_geoms) > 0 and mjm.nhfield > 1 and dataid is not None
                                    and dataid.shape[0] > 1)
-        self._hfields_built = {int(h) for h in mjm.geom_dataid[self._hfield_geoms.numpy()] if h >= 0}
+        self._hfields_built = {int(h) for h in mjm.geom_dataid[hfield_geoms] if h >= 0}
         self._cam_xpos_t = wp.to_torch(self._cam_xpos)
         self._cam_xmat_t = wp.to_torch(self._cam_xmat)
         self._rgb_t = wp.to_torch(self._rgb)  # [n, H, W, 3] float in [0, 1]
@@ -205,7 +205,7 @@ class WorldRenderer:
         """Build the ray-tracing BVH of every heightfield that a rendered world selects and that has none yet."""
         if not self._per_world_hfields:
             return
-        ids = wp.to_torch(self._model.geom_dataid)[: self.nworld, self._hfield_geoms.to(self.device)]
+        ids = wp.to_torch(self._model.geom_dataid)[: self.nworld, self._hfield_geoms]
         missing = sorted({int(h) for h in ids.reshape(-1).tolist() if h >= 0} - self._hfields_built)
         if not missing:
             return
@@ -270,18 +270,19 @@ def env_camera(env: Any) -> CameraSpec:
     return METAWORLD_CAMERA if spec is None else CameraSpec.from_any(spec)
 
 
-def task_worlds(env: Any, worlds_per_task: int) -> torch.Tensor:
-    """Indices ``[num_tasks, worlds_per_task]`` of the first worlds of every task of an env whose tasks share one
-    simulator (``env.task_id``), for the tasks that have worlds; ``ValueError`` if one has fewer."""
+def task_worlds(env: Any, worlds_per_task: int) -> tuple[list[int], torch.Tensor]:
+    """The tasks that have worlds in an env whose tasks share one simulator (``env.task_id``) and the indices
+    ``[num_tasks, worlds_per_task]`` of their first worlds; ``ValueError`` if one has fewer."""
     task_id = torch.as_tensor(env.task_id).reshape(-1).cpu()
+    tasks = torch.unique(task_id).tolist()
     rows = []
-    for task in torch.unique(task_id).tolist():
+    for task in tasks:
         worlds = torch.nonzero(task_id == task).reshape(-1)
         if len(worlds) < worlds_per_task:
             raise ValueError(f"worlds_per_task must be in [1, {len(worlds)}] (the worlds of task {task}), "
                              f"got {worlds_per_task}")
         rows.append(worlds[:worlds_per_task])
-    return torch.stack(rows)
+    return tasks, torch.stack(rows)
 
 
 class EnvRenderer:
@@ -310,8 +311,7 @@ class EnvRenderer:
             raise ValueError(f"worlds_per_task must be >= 1, got {worlds_per_task}")
         self._shared = getattr(env, "blocks", None) is None and isinstance(getattr(env, "sim", None), WarpSim)
         if self._shared:
-            worlds = task_worlds(env, self.worlds_per_task)
-            self.task_ids = torch.unique(torch.as_tensor(env.task_id).reshape(-1).cpu()).tolist()
+            self.task_ids, worlds = task_worlds(env, self.worlds_per_task)
             self.renderers = [WorldRenderer(env.sim, worlds.numel(), width, height, camera, shadows=shadows,
                                             worlds=worlds.reshape(-1))]
         else:

@@ -13,7 +13,7 @@ import torch
 from omegaconf import OmegaConf
 
 from .args import EvalArgs, EvalArgumentError, parse_args
-from .episodes import EvalResult, passes_needed, run_episodes, worlds_per_task
+from .episodes import EvalResult, fewest_worlds, passes_needed, run_episodes, worlds_per_task
 from .policy import EvalPolicy, checkpoint_num_tasks, load_policy, make_eval_env, read_checkpoint
 from .report import markdown_table, write_reports
 from .video import VideoRecorder, contact_sheet, write_png, write_video
@@ -89,7 +89,7 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
             if not 1 <= frames <= steps:
                 raise EvalArgumentError(f"video_frames={frames} is out of range; video_frames must be an integer in "
                                         f"[1, {steps}] (the episode length)")
-            fewest = min(c for c in counts if c > 0)
+            fewest = fewest_worlds(env)
             if args.video_grid ** 2 > fewest:
                 raise EvalArgumentError(
                     f"video_grid={args.video_grid} needs {args.video_grid ** 2} worlds per task, the smallest task "

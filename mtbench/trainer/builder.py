@@ -8,7 +8,7 @@ from typing import Any, Mapping
 import torch
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
-from torchrl.envs import ClipTransform, EnvBase, TransformedEnv
+from torchrl.envs import ClipTransform, EnvBase, Transform, TransformedEnv
 
 from ..modules.q_network import DecomposedQNetwork
 from ..objectives import MTGRPOLoss, MTPPOLoss, MTPQNLoss, make_gradient_method
@@ -55,11 +55,8 @@ def add_action_clip(env: EnvBase, loss_cfg: Mapping[str, Any]) -> EnvBase:
     if not loss_cfg.get("clip_actions", False):
         return env
     bound = torch.tensor(ACTION_CLIP, device=env.device)
-    clip = ClipTransform(in_keys_inv=["action"], out_keys_inv=["action"], low=-bound, high=bound)
-    if isinstance(env, TransformedEnv):
-        env.append_transform(clip)
-        return env
-    return TransformedEnv(env, clip)
+    return append_transform(env, ClipTransform(in_keys_inv=["action"], out_keys_inv=["action"], low=-bound,
+                                               high=bound))
 
 
 def add_observation_norm(env: EnvBase, loss_cfg: Mapping[str, Any]) -> EnvBase:
@@ -68,10 +65,17 @@ def add_observation_norm(env: EnvBase, loss_cfg: Mapping[str, Any]) -> EnvBase:
         return env
     base = base_env(env)
     norm = PerTaskObservationNorm(base.num_tasks, state_dim=getattr(base, "state_dim", None), device=env.device)
-    if isinstance(env, TransformedEnv):  # e.g. PQN's discrete actions: one level of transforms (TorchRL's layout)
-        env.append_transform(norm)
+    return append_transform(env, norm)
+
+
+def append_transform(env: EnvBase, transform: Transform) -> EnvBase:
+    """``env`` with ``transform`` last: appended to a ``TransformedEnv``'s transforms (one level of transforms, as
+    TorchRL lays them out; e.g. PQN's discrete actions, then the action clip, then the observation statistics), or a
+    new ``TransformedEnv``."""
+    if isinstance(env, TransformedEnv):
+        env.append_transform(transform)
         return env
-    return TransformedEnv(env, norm)
+    return TransformedEnv(env, transform)
 
 
 def build_networks(cfg: DictConfig, env: EnvBase, device: torch.device) -> tuple[nn.Module, nn.Module | None]:
@@ -302,6 +306,7 @@ __all__ = [
     "ACTION_CLIP",
     "add_action_clip",
     "add_observation_norm",
+    "append_transform",
     "build_env",
     "build_gradient_method",
     "build_hooks",
