@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+import sys
 import warnings
 from pathlib import Path
 from typing import Any
@@ -375,6 +376,24 @@ def test_cpu_default_overrides_and_resume_directory() -> None:
     grpo = compose_config(["env=mt10_rand", "loss=grpo"])
     sizes = (grpo.env.num_envs, grpo.loss.horizon, grpo.loss.minibatch_size, grpo.max_iterations)
     assert sizes == (4096, 150, 38400, 1908)
+
+
+def test_main_argv_keeps_hydra_flags_before_the_overrides(monkeypatch) -> None:
+    """Added overrides (the Parkour arch preset, the CPU env, the resume directory) join the user's overrides in one
+    run of positional arguments, after Hydra's flags: ``--cfg job`` with a Parkour env used to fail in argparse."""
+    import argparse
+
+    from mtbench.trainer.run import main_argv
+
+    monkeypatch.setattr(sys, "argv", ["train.py", "env=parkour_easy", "arch=mlp", "--cfg", "job", "seed=3"])
+    argv = main_argv()
+    assert argv == ["train.py", "--cfg", "job", "env=parkour_easy", "seed=3", "arch=mlp_parkour"]
+    parser = argparse.ArgumentParser()  # Hydra's shape: one flag with a value, then the overrides
+    parser.add_argument("--cfg")
+    parser.add_argument("overrides", nargs="*")
+    assert parser.parse_args(argv[1:]).overrides == ["env=parkour_easy", "seed=3", "arch=mlp_parkour"]
+    monkeypatch.setattr(sys, "argv", ["train.py", "--config-name", "x", "resume=/r/checkpoints/last.pt"])
+    assert main_argv() == ["train.py", "--config-name", "x", "resume=/r/checkpoints/last.pt", "hydra.run.dir=/r"]
 
 
 def test_run_front_door_logs_to_mcap_and_resume_appends_in_its_own_directories(

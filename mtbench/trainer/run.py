@@ -159,7 +159,12 @@ def main_argv() -> list[str]:
     args, note = parkour_arch_overrides(sys.argv[1:])
     if note is not None:
         print(note, flush=True)
-    return [sys.argv[0], *args, *cpu_default_overrides(args), *resume_dir_overrides(args)]
+    overrides = [*args, *cpu_default_overrides(args), *resume_dir_overrides(args)]
+    # Hydra's argument parser takes the overrides as one run of positional arguments: keep its flags
+    # (``--cfg job``, ``--config-name X``, ``-m``) in front of all of them
+    is_override = [("=" in a and not a.startswith("-")) for a in overrides]
+    flags = [a for a, o in zip(overrides, is_override) if not o]
+    return [sys.argv[0], *flags, *(a for a, o in zip(overrides, is_override) if o)]
 
 
 __all__ = ["CPU_ENV_PRESET", "cpu_default_overrides", "main_argv", "make_logger", "parkour_arch_overrides",
