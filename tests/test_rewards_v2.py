@@ -10,9 +10,9 @@ import pytest
 import torch
 
 from mtbench.envs.metaworld.registry import TASKS
-from mtbench.envs.metaworld.reward_utils import grasp_carry_reward, polyline_distance, progress
-from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, peg_insert_side, pick_place_wall,
-                                          push_wall, shelf_place)
+from mtbench.envs.metaworld.reward_utils import grasp_place_reward, polyline_distance, progress
+from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, peg_insert_side, pick_place,
+                                          pick_place_wall, push_wall, shelf_place)
 
 V2_TASKS = {"basketball", "box_close", "dial_turn", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
             "shelf_place"}
@@ -45,25 +45,71 @@ def test_progress_and_polyline_distance() -> None:
     close(polyline_distance(here, points, torch.tensor([1])), math.sqrt(2.0))  # straight to the goal
 
 
-def test_grasp_carry_reward_stages() -> None:
-    obj, init_tcp = p(0.0, 0.6, 0.02), p(0.0, 0.6, 0.2)
-    kw = dict(hold_radius=0.02, lift_height=0.1, place_radius=0.05)
-    far, far0 = torch.tensor([0.3]), torch.tensor([0.3])
-    # hand at its start: the long-tail reach is 0.1 at the start distance (its margin), nothing else pays
-    close(grasp_carry_reward(OPEN, init_tcp, obj, obj, init_tcp, torch.zeros(1), far, far0, **kw), 0.1)
-    # at the object, open, object not moved: reach only
-    close(grasp_carry_reward(OPEN, obj, obj, obj, init_tcp, torch.zeros(1), far, far0, **kw), 1.0)
-    # closing: + grip
-    close(grasp_carry_reward(GRIP, obj, obj, obj, init_tcp, torch.zeros(1), far, far0, **kw), 2.0)
-    # lifted by half the lift stage, carried half-way
-    close(grasp_carry_reward(GRIP, obj, obj, obj, init_tcp, torch.tensor([0.05]), torch.tensor([0.175]), far0, **kw),
-          2.0 + 0.5 + 2.5)
-    # everything done: 8 (below the success reward, 10)
-    close(grasp_carry_reward(GRIP, obj, obj, obj, init_tcp, torch.tensor([0.2]), torch.tensor([0.0]), far0, **kw), 8.0)
-    # the object at the goal without the hand (e.g. pushed or thrown there) pays no lift or carry
-    away = p(0.3, 0.6, 0.2)
-    assert grasp_carry_reward(GRIP, away, obj, obj, init_tcp, torch.tensor([0.2]), torch.tensor([0.0]), far0,
-                              **kw).item() < 1.0
+def gripper_distance_open(left: torch.Tensor, right: torch.Tensor) -> torch.Tensor:
+    """``TaskState.gripper_open``: pad distance / 0.1, clipped to [0, 1]."""
+    return ((left - right).norm(dim=-1) / 0.1).clamp(0.0, 1.0)
+
+
+def hand(point: torch.Tensor, gap: float = 0.04) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    """TCP at ``point``, finger pads ``gap`` apart along y around it, and MTBench's gripper opening from them."""
+    half = torch.tensor([[0.0, gap / 2, 0.0]])
+    left, right = point + half, point - half
+    return point, left, right, gripper_distance_open(left, right)
+
+
+def test_grasp_place_reward_is_pick_places_paper_reward() -> None:
+    """With the object as grasp point, the straight distance to the goal and pick_place's constants, the v2 form
+    equals pick_place's paper-era reward (the form MT-PPO learns in the MT50 run) on random states."""
+    g = torch.Generator().manual_seed(0)
+    n = 256
+    obj = torch.rand(n, 3, generator=g) * 0.2 + torch.tensor([-0.1, 0.55, 0.0])
+    obj_init = torch.rand(n, 3, generator=g) * 0.2 + torch.tensor([-0.1, 0.55, 0.0])
+    goal = obj_init + torch.tensor([0.0, 0.25, 0.15])  # farther than the 5 cm place radius
+    tcp = obj + (torch.rand(n, 3, generator=g) - 0.5) * 0.06  # some within 2 cm of the object
+    half = torch.zeros(n, 3)
+    half[:, 1] = torch.rand(n, generator=g) * 0.05
+    left, right = tcp + half, tcp - half
+    opened = gripper_distance_open(left, right)
+    action = torch.rand(n, 4, generator=g) * 2 - 1
+    init_tcp = torch.tensor([[0.0, 0.6, 0.2]]).expand(n, 3)
+    expected = pick_place.pick_place_reward(action, obj, opened, tcp, left, right, goal, obj_init, init_tcp)
+    got = grasp_place_reward(action, tcp, left, right, opened, obj, obj_init, init_tcp, obj[:, 2] - obj_init[:, 2],
+                             (obj - goal).norm(dim=-1), (obj_init - goal).norm(dim=-1), obj_radius=0.015,
+                             pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005, hold_radius=0.02,
+                             place_radius=0.05)
+    torch.testing.assert_close(got, expected, atol=1e-6, rtol=0.0)
+    held = ((obj - tcp).norm(dim=-1) < 0.02) & (opened > 0) & (obj[:, 2] - obj_init[:, 2] > 0.01)
+    assert 5 < int(held.sum()) < n - 5  # both branches are exercised
+
+
+def test_grasp_place_reward_pays_the_held_object_along_its_path() -> None:
+    obj0, init_tcp = p(0.0, 0.6, 0.02), p(0.0, 0.6, 0.2)
+    kw = dict(obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
+              hold_radius=0.02, place_radius=0.05)
+    d0 = torch.tensor([0.3])
+
+    def r(point: torch.Tensor, action: torch.Tensor, rise: float, dist: float, tcp_at: torch.Tensor | None = None):
+        tcp, left, right, opened = hand(point if tcp_at is None else tcp_at)
+        return grasp_place_reward(action, tcp, left, right, opened, point, obj0, init_tcp, torch.tensor([rise]),
+                                  torch.tensor([dist]), d0, **kw)
+
+    at_rest = r(obj0, GRIP, 0.0, 0.3)
+    assert 0.0 < at_rest.item() < 1.0  # caged, not lifted: hamacher(grasp, in_place) only
+    lifted = r(obj0 + torch.tensor([[0.0, 0.0, 0.02]]), GRIP, 0.02, 0.28)
+    assert lifted.item() > at_rest.item() + 1.5  # held 2 cm up: + 1 + 5 in_place at once
+    at_goal = r(obj0, GRIP, 0.15, 0.0)
+    assert 6.0 <= at_goal.item() <= 7.0 + 1e-6  # in_place 1: hamacher(grasp, 1) + 6, below the success reward
+    halfway = r(obj0, GRIP, 0.15, 0.15)
+    assert lifted.item() < halfway.item() < at_goal.item()
+    # the object at the goal without the hand (pushed or thrown there): no bonus
+    away = r(obj0, GRIP, 0.15, 0.0, tcp_at=p(0.3, 0.6, 0.2))
+    assert away.item() < 1.0
+
+
+def _expected(task_kw: dict, action, point, grasp_init, init_tcp, rise, dist, dist0, gap: float = 0.04):
+    tcp, left, right, opened = hand(point, gap)
+    return grasp_place_reward(action, tcp, left, right, opened, point, grasp_init, init_tcp, torch.tensor([rise]),
+                              torch.tensor([dist]), torch.tensor([dist0]), **task_kw)
 
 
 def test_dial_turn_v2() -> None:
@@ -85,59 +131,82 @@ def test_dial_turn_v2() -> None:
     close(dial_turn.dial_turn_reward_v2(far_tcp, goal, goal, start, init_tcp), 8.0)  # at the goal: 8
 
 
+def _kw(hold: float, place: float, obj_radius: float = 0.015, pad: float = 0.05, reach: float = 0.01) -> dict:
+    return dict(obj_radius=obj_radius, pad_success_thresh=pad, object_reach_radius=reach, xz_thresh=0.005,
+                hold_radius=hold, place_radius=place)
+
+
 def test_basketball_v2() -> None:
+    kw = _kw(basketball.V2_HOLD_RADIUS, basketball.TARGET_RADIUS, obj_radius=0.025, pad=0.06)
     ball0, goal, init_tcp = p(0.0, 0.65, 0.03), p(0.0, 0.8, 0.25), p(0.0, 0.6, 0.2)
-    close(basketball.basketball_reward_v2(GRIP, ball0, ball0, goal, ball0, init_tcp), 2.0)  # at the ball, closing
+    d0 = (ball0 - goal).norm().item()
+    at_ball = basketball.basketball_reward_v2(GRIP, ball0, *hand(ball0), goal, ball0, init_tcp)
+    torch.testing.assert_close(at_ball, _expected(kw, GRIP, ball0, ball0, init_tcp, 0.0, d0, d0))
+    assert at_ball.item() < 1.0  # at the ball, closing, not lifted
     near_goal = p(0.0, 0.8 - basketball.TARGET_RADIUS, 0.25)  # held 8 cm in front of the hoop centre
-    close(basketball.basketball_reward_v2(GRIP, near_goal, near_goal, goal, ball0, init_tcp), 8.0)
+    held = basketball.basketball_reward_v2(GRIP, near_goal, *hand(near_goal), goal, ball0, init_tcp)
+    torch.testing.assert_close(held, _expected(kw, GRIP, near_goal, ball0, init_tcp, 0.22, basketball.TARGET_RADIUS,
+                                               d0))
+    assert held.item() >= 6.0
 
 
 def test_box_close_v2_goes_over_the_walls() -> None:
+    kw = _kw(box_close.V2_HOLD_RADIUS, box_close.SUCCESS_RADIUS, obj_radius=0.01)
     top0, goal, init_tcp = p(0.0, 0.47, box_close.TOP_LINK_REST_Z), p(0.0, 0.8, 0.133), p(0.0, 0.6, 0.2)
-    lid = p(0.0, 0.47, box_close.TOP_LINK_REST_Z + box_close.LID_POINT)
-    close(box_close.box_close_reward_v2(GRIP, top0, lid, lid, goal, top0, init_tcp), 2.0)
-    # dragged 10 cm towards the box over the table: no carry progress (the path goes up first)
-    dragged = p(0.0, 0.57, box_close.TOP_LINK_REST_Z)
-    lid_dragged = dragged + torch.tensor([[0.0, 0.0, box_close.LID_POINT]])
-    close(box_close.box_close_reward_v2(GRIP, dragged, lid_dragged, lid_dragged, goal, top0, init_tcp), 2.0)
-    # lifted straight up to the carry height: lift stage done, and the carry has progressed by the climb
-    up = p(0.0, 0.47, box_close.V2_CARRY_Z)
-    lid_up = up + torch.tensor([[0.0, 0.0, box_close.LID_POINT]])
+    bar = torch.tensor([[0.0, 0.0, box_close.LID_POINT]])
     climb = box_close.V2_CARRY_Z - box_close.TOP_LINK_REST_Z
     rest = math.hypot(0.33, box_close.V2_CARRY_Z - 0.133)
-    expected = 3.0 + 5.0 * climb / (climb + rest - box_close.SUCCESS_RADIUS)
-    torch.testing.assert_close(box_close.box_close_reward_v2(GRIP, up, lid_up, lid_up, goal, top0, init_tcp),
-                               torch.tensor([expected]), atol=1e-4, rtol=0.0)
+
+    def v2(top: torch.Tensor) -> torch.Tensor:
+        return box_close.box_close_reward_v2(GRIP, top, top + bar, *hand(top + bar), goal, top0, init_tcp)
+
+    def expected(top: torch.Tensor, dist: float) -> torch.Tensor:
+        return _expected(kw, GRIP, top + bar, top0 + bar, init_tcp, (top - top0)[0, 2].item(), dist, climb + rest)
+
+    torch.testing.assert_close(v2(top0), expected(top0, climb + rest))
+    # dragged 10 cm towards the box over the table: the path still goes up first, and nothing is lifted
+    dragged = p(0.0, 0.57, box_close.TOP_LINK_REST_Z)
+    torch.testing.assert_close(v2(dragged), expected(dragged, math.hypot(0.1, climb) + rest))
+    assert v2(dragged).item() < 1.0
+    # lifted straight up to the carry height: held and lifted, the way to the goal is straight from there
+    up = p(0.0, 0.47, box_close.V2_CARRY_Z)
+    torch.testing.assert_close(v2(up), expected(up, rest), atol=1e-5, rtol=0.0)
+    assert v2(up).item() > v2(top0).item() + 1.0
     over = goal + torch.tensor([[0.0, 0.0, box_close.SUCCESS_RADIUS]])
-    lid_over = over + torch.tensor([[0.0, 0.0, box_close.LID_POINT]])
-    close(box_close.box_close_reward_v2(GRIP, over, lid_over, lid_over, goal, top0, init_tcp), 8.0)
+    torch.testing.assert_close(v2(over), expected(over, box_close.SUCCESS_RADIUS), atol=1e-5, rtol=0.0)
+    assert v2(over).item() >= 6.0
 
 
 def test_disassemble_v2() -> None:
+    kw = _kw(disassemble.V2_HOLD_RADIUS, disassemble.SUCCESS_TOL, obj_radius=0.02, reach=0.0)
     handle0, init_tcp = p(0.05, 0.65, 0.025), p(0.0, 0.4, 0.2)
     goal = p(0.0, 0.65, 0.025 + 0.15)
     ring0 = p(0.0, 0.65, 0.025)
-    close(disassemble.disassemble_reward_v2(GRIP, handle0, ring0, handle0, goal, handle0, init_tcp), 2.0)
-    up = torch.tensor([[0.0, 0.0, 0.05]])  # a third of the way: lift 0.5, carry (0.15 - 0.10) / 0.10 = 0.5
-    close(disassemble.disassemble_reward_v2(GRIP, handle0 + up, ring0 + up, handle0 + up, goal, handle0, init_tcp),
-          2.0 + 0.5 + 2.5)
-    up = torch.tensor([[0.0, 0.0, 0.1]])
-    close(disassemble.disassemble_reward_v2(GRIP, handle0 + up, ring0 + up, handle0 + up, goal, handle0, init_tcp),
-          8.0)
+    for lift in (0.0, 0.05, 0.1):
+        up = torch.tensor([[0.0, 0.0, lift]])
+        got = disassemble.disassemble_reward_v2(GRIP, handle0 + up, ring0 + up, *hand(handle0 + up), goal, handle0,
+                                                init_tcp)
+        torch.testing.assert_close(got, _expected(kw, GRIP, handle0 + up, handle0, init_tcp, lift, 0.15 - lift, 0.15),
+                                   atol=1e-5, rtol=0.0)
+    assert got.item() >= 6.0  # 10 cm up: within the 5 cm of the success height
 
 
 def test_wall_paths() -> None:
+    kw = _kw(pick_place_wall.V2_HOLD_RADIUS, pick_place_wall.TARGET_RADIUS)
     puck0, goal, init_tcp = p(0.0, 0.62, 0.02), p(0.0, 0.88, 0.2), p(0.0, 0.6, 0.2)
-    close(pick_place_wall.pick_place_wall_reward_v2(GRIP, puck0, puck0, goal, puck0, init_tcp), 2.0)
-    # lifted to the crossing height at its start: the lift stage is done and the carry has gone the first leg
-    up = p(0.0, 0.62, pick_place_wall.V2_OVER_Z)
     leg1 = pick_place_wall.V2_OVER_Z - 0.02
     rest = math.hypot(0.87 - 0.62, 0.2 - pick_place_wall.V2_OVER_Z) + (0.88 - 0.87)  # over the wall, then down
-    expected = 3.0 + 5.0 * leg1 / (leg1 + rest - pick_place_wall.TARGET_RADIUS)
-    torch.testing.assert_close(pick_place_wall.pick_place_wall_reward_v2(GRIP, up, up, goal, puck0, init_tcp),
-                               torch.tensor([expected]), atol=1e-4, rtol=0.0)
-    # held at the goal: 8
-    close(pick_place_wall.pick_place_wall_reward_v2(GRIP, goal, goal, goal, puck0, init_tcp), 8.0)
+
+    def ppw(puck: torch.Tensor) -> torch.Tensor:
+        return pick_place_wall.pick_place_wall_reward_v2(GRIP, puck, *hand(puck), goal, puck0, init_tcp)
+
+    torch.testing.assert_close(ppw(puck0), _expected(kw, GRIP, puck0, puck0, init_tcp, 0.0, leg1 + rest, leg1 + rest))
+    # lifted to the crossing height at its start: the first leg is done
+    up = p(0.0, 0.62, pick_place_wall.V2_OVER_Z)
+    torch.testing.assert_close(ppw(up), _expected(kw, GRIP, up, puck0, init_tcp, leg1, rest, leg1 + rest),
+                               atol=1e-5, rtol=0.0)
+    torch.testing.assert_close(ppw(goal), _expected(kw, GRIP, goal, puck0, init_tcp, 0.18, 0.0, leg1 + rest))
+    assert ppw(puck0).item() < 1.0 < ppw(up).item() < ppw(goal).item()
     # push_wall: the lane beside the wall's end is stage 1, anything past the wall stage 2
     lane = p(push_wall.V2_LANE_X, 0.7, 0.03)
     assert push_wall.wall_stage(lane, lane[:, 0] <= push_wall.V2_IN_LANE).item() == 1
@@ -145,47 +214,80 @@ def test_wall_paths() -> None:
     behind = p(0.0, 0.8, 0.02)
     assert push_wall.wall_stage(behind, behind[:, 0] <= push_wall.V2_IN_LANE).item() == 2
     table_goal = p(0.0, 0.88, 0.02)
-    # at the goal on the table: all but the lift stage (the puck is carried 1 cm up: then 8)
-    close(push_wall.push_wall_reward_v2(GRIP, table_goal, table_goal, table_goal, puck0, init_tcp), 7.0)
-    carried = table_goal + torch.tensor([[0.0, 0.0, push_wall.V2_LIFT]])
-    close(push_wall.push_wall_reward_v2(GRIP, carried, carried, table_goal, puck0, init_tcp), 8.0)
-    # pushing the puck straight at the wall (no lane) earns no carry progress
+    # held 1.5 cm up at the goal on the table: in place, lifted
+    carried = table_goal + torch.tensor([[0.0, 0.0, 0.015]])
+    pw = push_wall.push_wall_reward_v2(GRIP, carried, *hand(carried), table_goal, puck0, init_tcp)
+    kw_pw = _kw(push_wall.V2_HOLD_RADIUS, push_wall.TARGET_RADIUS)
+    dist0 = polyline_distance(puck0, [p(push_wall.V2_LANE_X, 0.62, push_wall.V2_CARRY_Z),
+                                      p(push_wall.V2_LANE_X, push_wall.V2_BEHIND_Y, push_wall.V2_CARRY_Z), table_goal],
+                              torch.tensor([0])).item()
+    torch.testing.assert_close(pw, _expected(kw_pw, GRIP, carried, puck0, init_tcp, 0.015, 0.015, dist0))
+    assert pw.item() >= 6.0
+    # pushing the puck straight at the wall (no lane, not lifted) earns no bonus
     at_wall = p(0.0, 0.715, 0.02)
-    assert push_wall.push_wall_reward_v2(OPEN, at_wall, at_wall, table_goal, puck0, init_tcp).item() <= 1.0 + 1e-6
+    assert push_wall.push_wall_reward_v2(OPEN, at_wall, *hand(at_wall), table_goal, puck0, init_tcp).item() < 1.0
 
 
 def test_shelf_place_v2() -> None:
+    kw = _kw(shelf_place.V2_HOLD_RADIUS, shelf_place.TARGET_RADIUS)
     block0, goal, init_tcp = p(0.0, 0.55, 0.02), p(0.05, 0.85, 0.3), p(0.0, 0.5, 0.2)
-    close(shelf_place.shelf_place_reward_v2(GRIP, block0, block0, goal, block0, init_tcp), 2.0)
-    # in front of the shelf at the goal's height: lift done; the carry has done all but the last 16 cm
     front = goal - torch.tensor([[0.0, shelf_place.V2_FRONT, 0.0]])
     total = (front - block0).norm().item() + shelf_place.V2_FRONT
-    expected = 3.0 + 5.0 * (total - shelf_place.V2_FRONT) / (total - shelf_place.TARGET_RADIUS)
-    torch.testing.assert_close(shelf_place.shelf_place_reward_v2(GRIP, front, front, goal, block0, init_tcp),
-                               torch.tensor([expected]), atol=1e-4, rtol=0.0)
+
+    def v2(block: torch.Tensor) -> torch.Tensor:
+        return shelf_place.shelf_place_reward_v2(GRIP, block, *hand(block), goal, block0, init_tcp)
+
+    torch.testing.assert_close(v2(block0), _expected(kw, GRIP, block0, block0, init_tcp, 0.0, total, total))
+    # in front of the shelf at the goal's height: all but the last 16 cm done
+    torch.testing.assert_close(v2(front), _expected(kw, GRIP, front, block0, init_tcp, 0.28, shelf_place.V2_FRONT,
+                                                    total), atol=1e-5, rtol=0.0)
     # under the board (below the goal's height, past the front edge) counts as the long way round
     under = p(0.05, 0.85, 0.15)
-    assert (shelf_place.shelf_place_reward_v2(GRIP, under, under, goal, block0, init_tcp)
-            < shelf_place.shelf_place_reward_v2(GRIP, front, front, goal, block0, init_tcp)).item()
-    close(shelf_place.shelf_place_reward_v2(GRIP, goal, goal, goal, block0, init_tcp), 8.0)
+    assert (v2(under) < v2(front)).item()
+    assert v2(block0).item() < 1.0 < v2(front).item() < v2(goal).item()
+    assert v2(goal).item() >= 6.0
 
 
 def test_peg_insert_side_v2() -> None:
+    kw = _kw(peg_insert_side.V2_HOLD_RADIUS, peg_insert_side.TARGET_RADIUS, obj_radius=0.02, reach=0.0)
     peg0, goal, init_tcp = p(0.1, 0.6, 0.02), p(-0.27, 0.6, 0.13), p(0.0, 0.6, 0.2)
     grasp0 = peg0 + torch.tensor([peg_insert_side.GRASP_FROM_BODY])
     head0 = peg0 + torch.tensor([[-0.1, 0.0, 0.0]])
-    close(peg_insert_side.peg_insert_side_reward_v2(GRIP, grasp0, head0, grasp0, goal, peg0, head0, init_tcp), 2.0)
-    # head lined up at the entry point: lift done, carry all but the entry leg
     entry = goal + torch.tensor([[peg_insert_side.V2_ENTRY, 0.0, 0.0]])
-    grasp = entry + (grasp0 - head0)
     total = (entry - head0).norm().item() + peg_insert_side.V2_ENTRY
-    expected = 3.0 + 5.0 * (total - peg_insert_side.V2_ENTRY) / (total - peg_insert_side.TARGET_RADIUS)
-    torch.testing.assert_close(
-        peg_insert_side.peg_insert_side_reward_v2(GRIP, grasp, entry, grasp, goal, peg0, head0, init_tcp),
-        torch.tensor([expected]), atol=1e-4, rtol=0.0)
-    inserted = goal + (grasp0 - head0)
-    close(peg_insert_side.peg_insert_side_reward_v2(GRIP, inserted, goal, inserted, goal, peg0, head0, init_tcp),
-          8.0)
+
+    def v2(head: torch.Tensor) -> torch.Tensor:
+        grasp = head + (grasp0 - head0)
+        return peg_insert_side.peg_insert_side_reward_v2(GRIP, grasp, head, *hand(grasp), goal, peg0, head0, init_tcp)
+
+    def expected(head: torch.Tensor, dist: float) -> torch.Tensor:
+        rise = (head - head0)[0, 2].item()
+        return _expected(kw, GRIP, head + (grasp0 - head0), grasp0, init_tcp, rise, dist, total)
+
+    torch.testing.assert_close(v2(head0), expected(head0, total))
+    torch.testing.assert_close(v2(entry), expected(entry, peg_insert_side.V2_ENTRY), atol=1e-5, rtol=0.0)
+    torch.testing.assert_close(v2(goal), expected(goal, 0.0), atol=1e-5, rtol=0.0)
+    assert v2(head0).item() < 1.0 < v2(entry).item() < v2(goal).item()
+    assert v2(goal).item() >= 6.0
+
+
+def test_grasp_place_tasks_in_the_env() -> None:
+    """The seven tasks' v2 rewards read their named state in a real env: finite, within [0, 10] per step (dense
+    0..7, success 10), and their revision is recorded."""
+    from mtbench.envs import make_env
+
+    tasks = ["basketball", "box_close", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
+             "shelf_place"]
+    env = make_env(tasks, num_envs=[2] * len(tasks), device="cpu", seed=0, reward_version="v2")
+    assert env.reward_revision == "v2-2026-11-28"
+    td = env.reset()
+    g = torch.Generator().manual_seed(0)
+    for _ in range(3):
+        td.set("action", torch.rand(env.batch_size[0], 4, generator=g) * 2 - 1)
+        td = env.step(td)["next"]
+        reward = td["reward"]
+        assert torch.isfinite(reward).all() and (reward >= 0).all() and (reward <= 10.0).all()
+    env.close()
 
 
 def test_pick_place_wall_v2_pays_10_on_every_success_step() -> None:

@@ -242,6 +242,18 @@ def test_resume_refuses_another_reward_version_and_logs_it(tmp_path: Path) -> No
     v2.reward_version = "v2"
     with pytest.raises(ValueError, match="reward_version: checkpoint='paper' current='v2'"):
         build_trainer(_cfg(tmp_path, f"resume={tmp_path / 'ckpt' / 'final.pt'}"), env=v2)
+    # the revision of a version's definition: a v2 checkpoint of an older v2 is refused, also one written before
+    # revisions were recorded (the first v2 definition)
+    v2.reward_revision = "v2-2026-11-28"
+    build_trainer(_cfg(tmp_path / "v2", "max_iterations=1"), env=v2).train()
+    final = tmp_path / "v2" / "ckpt" / "final.pt"
+    assert load_checkpoint(final)["env_info"]["reward_revision"] == "v2-2026-11-28"
+    assert build_trainer(_cfg(tmp_path / "v2", "max_iterations=2", f"resume={final}"), env=v2).iteration == 1
+    state = load_checkpoint(final)
+    del state["env_info"]["reward_revision"]
+    old = save_checkpoint(tmp_path / "old_v2.pt", state)
+    with pytest.raises(ValueError, match="reward_revision: checkpoint='v2-2026-11-25' current='v2-2026-11-28'"):
+        build_trainer(_cfg(tmp_path / "v2", f"resume={old}"), env=v2)
 
 
 def test_corrupted_checkpoint_is_refused_naming_the_file(tmp_path: Path) -> None:

@@ -53,6 +53,11 @@ def tasks_with_worlds(env: EnvBase, num_tasks: int) -> torch.Tensor | None:
     return torch.bincount(task_id.reshape(-1).cpu(), minlength=num_tasks)[:num_tasks] > 0
 
 
+LEGACY_V2_REVISION = "v2-2026-11-25"
+"""The ``reward_revision`` of a ``reward_version="v2"`` checkpoint written before revisions were recorded (the first
+v2 definition; Meta-World's ``task.REWARD_REVISIONS`` lists them)."""
+
+
 class TrainingLoop:
     """Base of the training loops: subclasses implement :meth:`train_iteration` (one iteration, top to bottom,
     returning its metrics or ``None`` when a stop request interrupted it) and may extend the checkpoint state
@@ -219,9 +224,11 @@ class TrainingLoop:
     # ------------------------------------------------------------------ checkpointing
     def env_info(self) -> dict[str, Any]:
         """Properties of the env that define what a run measures (recorded in logs and checkpoints; a run only
-        resumes from a checkpoint with the same values): the env class and its ``reward_version``."""
+        resumes from a checkpoint with the same values): the env class, its ``reward_version`` and the revision of
+        that version's definition (``reward_revision``, Meta-World: ``task.REWARD_REVISIONS``)."""
         return {"env_class": type(self.base_env).__name__,
-                "reward_version": getattr(self.base_env, "reward_version", None)}
+                "reward_version": getattr(self.base_env, "reward_version", None),
+                "reward_revision": getattr(self.base_env, "reward_revision", None)}
 
     def _counters(self) -> dict[str, Any]:
         return {
@@ -288,8 +295,11 @@ class TrainingLoop:
                 b = OmegaConf.select(self.config, key, default=default)
                 if a != b:
                     diffs.append(f"{key}: checkpoint={a!r} current={b!r}")
+        saved_info = dict(state.get("env_info") or {})
+        if "reward_revision" not in saved_info and saved_info.get("reward_version") == "v2":
+            saved_info["reward_revision"] = LEGACY_V2_REVISION
         for key, value in self.env_info().items():
-            saved_value = (state.get("env_info") or {}).get(key, value)
+            saved_value = saved_info.get(key, value)
             if saved_value != value:
                 diffs.append(f"env {key}: checkpoint={saved_value!r} current={value!r}")
         if diffs:

@@ -17,7 +17,7 @@ from . import observation as layout
 from . import robot
 from .models import compiled_task
 from .reward_utils import mtbench_tolerance
-from .task import HAND_HIGH, HAND_LOW, MetaWorldTask, Reward, TaskState, check_reward_version
+from .task import HAND_HIGH, HAND_LOW, REWARD_REVISIONS, MetaWorldTask, Reward, TaskState, check_reward_version
 
 STATE_DIM = layout.STATE_DIM
 ACTION_DIM = 4
@@ -125,6 +125,7 @@ class MetaWorldEnv(EnvBase):
         dev = self.device
         self.task_names = tasks
         self.reward_version = reward_version
+        self.reward_revision = REWARD_REVISIONS[reward_version]  # the definition in this code (task.py)
         self.task_counts = counts
         self.num_tasks = len(tasks)
         self.state_dim = STATE_DIM

@@ -34,7 +34,7 @@ __all__ = [
     "mtbench_tolerance",
     "above_floor_funnel",
     "check_unit_interval",
-    "grasp_carry_reward",
+    "grasp_place_reward",
     "gripper_caging_reward",
     "polyline_distance",
     "progress",
@@ -435,11 +435,10 @@ def scaled_norm(d: Tensor, scale: tuple[float, float, float]) -> Tensor:
                                                 dim=-1), dim=-1)
 
 
-# --- reward_version="v2": staged shaping of our design (docs/metaworld.md, "reward_version v2") ---
-# Weights of the stages of :func:`grasp_carry_reward`: reaching the grasp point, closing the gripper there, lifting
-# the object in the hand, carrying it to the goal. Their sum (8) stays below the success reward (10), so that
-# success always pays more than any dense step.
-V2_REACH, V2_GRIP, V2_LIFT, V2_CARRY = 1.0, 1.0, 1.0, 5.0
+# --- reward_version="v2": shaping of our design (docs/metaworld.md, "reward_version v2") ---
+V2_LIFTED = 0.01
+"""Height (m) above its start by which a held object counts as lifted in :func:`grasp_place_reward` (pick_place's
+paper-era ``obj_z - 0.01 > obj_init_z``)."""
 
 
 def progress(dist: Tensor, dist0: Tensor, radius: float) -> Tensor:
@@ -462,28 +461,33 @@ def polyline_distance(p: Tensor, points: list[Tensor], stage: Tensor) -> Tensor:
     return options.gather(-1, stage.long().clamp(0, k - 1).unsqueeze(-1)).squeeze(-1)
 
 
-def grasp_carry_reward(action: Tensor, tcp: Tensor, grasp_point: Tensor, grasp_init: Tensor, init_tcp: Tensor,
-                       rise: Tensor, carry: Tensor, carry0: Tensor, *, hold_radius: float, lift_height: float,
-                       place_radius: float) -> Tensor:
-    """The staged v2 reward ``[N]`` (0..8) of a grasp-and-carry task::
+def grasp_place_reward(action: Tensor, tcp: Tensor, left_pad: Tensor, right_pad: Tensor, gripper_open: Tensor,
+                       grasp_point: Tensor, grasp_init: Tensor, init_tcp: Tensor, rise: Tensor, dist: Tensor,
+                       dist0: Tensor, *, obj_radius: float, pad_success_thresh: float, object_reach_radius: float,
+                       xz_thresh: float, hold_radius: float, place_radius: float) -> Tensor:
+    """The v2 reward ``[N]`` (0..7) of a grasp-and-carry task: pick_place's paper-era form (the one MT-PPO learns in
+    the MT50 run) with the task's own grasp point and path to the goal::
 
-        d     = ‖tcp − grasp_point‖
-        reach = tolerance(d, (0, hold_radius), margin=‖init_tcp − grasp_init‖, long_tail)      # 0..1
-        near  = d < hold_radius
-        grip  = near · clip(action[3], 0, 1)                       # closing the gripper at the grasp point
-        lift  = near · clip(rise / lift_height, 0, 1)               # the object raised while in the hand
-        carry = near · progress(carry, carry0, place_radius)        # the object brought along its path to the goal
-        r = 1·reach + 1·grip + 1·lift + 5·carry
+        in_place = tolerance(dist, (0, place_radius), margin=dist0, long_tail)
+        grasp    = gripper_caging(grasp_point, obj_radius, pad_success_thresh, object_reach_radius, xz_thresh,
+                                  medium_density)                      # fingers around the grasp point
+        r = hamacher(grasp, in_place)
+        held = ‖tcp − grasp_point‖ < hold_radius and gripper_open > 0 and rise > 0.01
+        if held:  r += 1 + 5·in_place
 
-    ``rise`` is the object's height above its initial height, ``carry``/``carry0`` its current/initial path
-    length to the goal (e.g. :func:`polyline_distance`). Every stage pays for progress towards the next sub-goal,
-    and the stages are gated by the hand being at the grasp point, so that pushing the object away does not pay.
+    ``dist``/``dist0`` are the object's current/initial path length to the goal (e.g. :func:`polyline_distance`
+    through the waypoints that clear an obstacle), ``rise`` its height above its start. The caging term shapes the
+    grasp itself (pad positions and the closing effort around the grasp point, against a reach that alone pays
+    little), and lifting the held object by 1 cm adds at least 1 + 5·0.1 at once: the signal that makes pick_place
+    learnable, which the task's paper-era reward loses (a midpoint through a wall, a band that subtracts, a 2 cm
+    hold radius on a 3 cm ball).
     """
-    d = torch.linalg.vector_norm(tcp - grasp_point, dim=-1)
-    d0 = torch.linalg.vector_norm(init_tcp - grasp_init, dim=-1)
-    reach = tolerance(d, bounds=(0.0, hold_radius), margin=(d0 - hold_radius).clamp_min(0.05), sigmoid="long_tail")
-    near = (d < hold_radius).to(d.dtype)
-    grip = near * action[..., 3].clamp(0.0, 1.0)
-    lift = near * (rise / lift_height).clamp(0.0, 1.0)
-    carried = near * progress(carry, carry0, place_radius)
-    return V2_REACH * reach + V2_GRIP * grip + V2_LIFT * lift + V2_CARRY * carried
+    in_place = tolerance(dist, bounds=(0.0, place_radius), margin=dist0.clamp_min(place_radius + 1e-3),
+                         sigmoid="long_tail")
+    grasp = gripper_caging_reward(action, grasp_point, obj_radius, pad_success_thresh, object_reach_radius, xz_thresh,
+                                  left_pad=left_pad, right_pad=right_pad, tcp_center=tcp, obj_init_pos=grasp_init,
+                                  init_tcp=init_tcp, medium_density=True)
+    reward = hamacher_product(grasp, in_place)
+    held = ((torch.linalg.vector_norm(tcp - grasp_point, dim=-1) < hold_radius) & (gripper_open > 0)
+            & (rise > V2_LIFTED))
+    return torch.where(held, reward + 1.0 + 5.0 * in_place, reward)

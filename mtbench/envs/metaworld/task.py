@@ -28,9 +28,15 @@ HAND_HIGH = (0.525, 1.025, 0.7)
 # ``paper``: the paper-era MTBench rewards, evaluated with the original's ``tolerance`` (0 inside its bounds: see
 # ``reward_utils.mtbench_tolerance``), which reproduces the paper's tables; ``v2``: the same formulas with a correct
 # ``tolerance`` (1 inside the bounds, Meta-World's), except for the tasks that redefine their v2 reward
-# (``reward_v2``, ``success_reward_v2``): staged rewards of our design for the tasks that MT-PPO leaves at ~0% with
-# the paper-era rewards (docs/metaworld.md, "reward_version v2"; docs/results/mt50_rand_ppo.md).
+# (``reward_v2``, ``success_reward_v2``): rewards of our design for the tasks that MT-PPO leaves at ~0% with the
+# paper-era rewards (docs/metaworld.md, "reward_version v2"; docs/results/mt50_rand_ppo.md).
 REWARD_VERSIONS: tuple[str, ...] = ("paper", "v2")
+REWARD_REVISIONS: dict[str, str] = {"paper": "paper", "v2": "v2-2026-11-28"}
+"""The definition each reward version has in this code, recorded in logs and checkpoints (a run resumes only into
+the same revision). ``v2`` revisions: ``v2-2026-11-25``, staged reach/grip/lift/carry rewards for the grasp-and-carry
+tasks (the first MT50-rand v2 run); ``v2-2026-11-28``, pick_place's paper-era form with each task's grasp point and
+path (``reward_utils.grasp_place_reward``) for basketball, box_close, disassemble, peg_insert_side,
+pick_place_wall, push_wall and shelf_place."""
 
 Reward = Callable[["TaskState", torch.Tensor], torch.Tensor]
 
@@ -298,5 +304,5 @@ def offset(x: torch.Tensor, dx: float, dy: float, dz: float) -> torch.Tensor:
     return torch.stack([x[..., 0] + dx, x[..., 1] + dy, x[..., 2] + dz], dim=-1)
 
 
-__all__ = ["HAND_HIGH", "HAND_LOW", "REWARD_VERSIONS", "check_reward_version", "FreeObjectTask", "MetaWorldTask", "Objects", "TaskState",
+__all__ = ["HAND_HIGH", "HAND_LOW", "REWARD_REVISIONS", "REWARD_VERSIONS", "check_reward_version", "FreeObjectTask", "MetaWorldTask", "Objects", "TaskState",
            "offset", "unit_quat"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import grasp_carry_reward, gripper_caging_reward, hamacher_product, tolerance
+from ..reward_utils import grasp_place_reward, gripper_caging_reward, hamacher_product, tolerance
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState, offset
 
@@ -32,24 +32,25 @@ def basketball_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: tor
 
 
 V2_HOLD_RADIUS = 0.03  # v2: TCP within the ball's radius of its centre (Meta-World's hold radius: 3.5 cm)
-V2_LIFT = 0.1  # v2: the lift stage is complete 10 cm above the ball's start
 
 
-def basketball_reward_v2(action: torch.Tensor, ball: torch.Tensor, tcp: torch.Tensor, goal: torch.Tensor,
+def basketball_reward_v2(action: torch.Tensor, ball: torch.Tensor, tcp: torch.Tensor, left_pad: torch.Tensor,
+                         right_pad: torch.Tensor, gripper_open: torch.Tensor, goal: torch.Tensor,
                          ball_init: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_carry_reward` with the
-    ball as grasp point and object, hold radius 3 cm, lift stage 10 cm, and the carry measured by the straight
-    distance ball -> hoop centre (the success sphere of 8 cm reaches in front of and above the ring, so a held
-    ball reaches it without passing through the ring).
+    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+    form) with the ball as grasp point and object, hold radius 3 cm, and the carry measured by the straight distance
+    ball -> hoop centre (the success sphere of 8 cm reaches in front of and above the ring, so a held ball reaches it
+    without passing through the ring).
 
     Why: the paper-era reward pays for reaching and caging through a hamacher product with the long-tail
     ``in_place`` (0.1 until the ball moves towards the hoop) and pays the carry only while the TCP is within
-    2 cm of the ball's centre and the ball 1 cm up; the staged reward pays reaching, closing the gripper at the
-    ball and lifting it on their own, and the carry linearly.
+    2 cm of the ball's centre (the ball's radius is 3 cm) and the ball 1 cm up. v2 holds it within 3 cm.
     """
     dist, dist0 = (ball - goal).norm(dim=-1), (ball_init - goal).norm(dim=-1)
-    return grasp_carry_reward(action, tcp, ball, ball_init, init_tcp, ball[:, 2] - ball_init[:, 2], dist, dist0,
-                              hold_radius=V2_HOLD_RADIUS, lift_height=V2_LIFT, place_radius=TARGET_RADIUS)
+    return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, ball, ball_init, init_tcp,
+                              ball[:, 2] - ball_init[:, 2], dist, dist0,
+                              obj_radius=0.025, pad_success_thresh=0.06, object_reach_radius=0.01, xz_thresh=0.005,
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
 
 
 def basketball_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -81,7 +82,7 @@ class Basketball(FreeObjectTask):
 
     (Meta-World v2: z error weighted 2 with the target at z = 0.3, high-density caging, grasp forced to 1 when
     lifted, 3.5 cm hold radius.) Success (MTBench and Meta-World): ``‖ball − hoop centre‖ < 0.08``.
-    ``reward_version="v2"``: :func:`basketball_reward_v2` (staged reach, grip, lift, carry).
+    ``reward_version="v2"``: :func:`basketball_reward_v2` (pick_place's form, held within 3 cm).
     """
 
     name = "basketball"
@@ -108,7 +109,8 @@ class Basketball(FreeObjectTask):
                                  s.obj_init_pos, s.init_tcp)
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
-        return basketball_reward_v2(action, s.obj_pos, s.tcp, s.goal, s.obj_init_pos, s.init_tcp)
+        return basketball_reward_v2(action, s.obj_pos, s.tcp, s.left_pad, s.right_pad, s.gripper_open, s.goal,
+                                    s.obj_init_pos, s.init_tcp)
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return basketball_success(s.obj_pos, s.goal)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import mujoco
 import torch
 
-from ..reward_utils import grasp_carry_reward, hamacher_product, polyline_distance, tolerance
+from ..reward_utils import grasp_place_reward, hamacher_product, polyline_distance, tolerance
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, Objects, TaskState, offset
 
@@ -45,25 +45,27 @@ V2_NEAR_BOX = 0.15  # v2: horizontal distance to the goal under which the lid ma
 
 
 def box_close_reward_v2(action: torch.Tensor, top: torch.Tensor, lid: torch.Tensor, tcp: torch.Tensor,
-                        goal: torch.Tensor, top_init: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_carry_reward` with the
-    handle bar (``lid``) as grasp point and ``top`` (top_link) as the carried object, hold radius 2 cm, lift
-    stage 10 cm, and the carry measured along the path up from the lid's start to ``V2_CARRY_Z`` and then straight
-    to the goal, while the lid is low and more than 15 cm (horizontally) from the goal; straight to the goal
-    otherwise.
+                        left_pad: torch.Tensor, right_pad: torch.Tensor, gripper_open: torch.Tensor, goal: torch.Tensor,
+                        top_init: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
+    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+    form) with the handle bar (``lid``) as grasp point and ``top`` (top_link) as the carried object, hold radius 2 cm,
+    and the carry measured along the path up from the lid's start to ``V2_CARRY_Z`` and then straight to the goal, while
+    the lid is low and more than 15 cm (horizontally) from the goal; straight to the goal otherwise.
 
     Why: the paper-era reward pays 2 for the TCP at the bar with the gripper closing, 0.2 for the lid 1 cm up and
     the rest through a long-tail term of the (z x 3) distance to the goal; dragging the lid over the table scores
-    about as much as lifting it, and the box's walls stop a dragged lid. The staged reward pays the grasp, the lift
-    and every centimetre of the way over the walls.
+    about as much as lifting it, and the box's walls stop a dragged lid. v2 cages the handle bar and pays the lid's
+    way over the walls once it is held and lifted.
     """
     lid_init = offset(top_init, 0.0, 0.0, LID_POINT)
     above_start = torch.stack([top_init[:, 0], top_init[:, 1], torch.full_like(top_init[:, 2], V2_CARRY_Z)], dim=-1)
     low_and_far = (top[:, 2] < V2_CARRY_Z - 0.02) & ((top[:, :2] - goal[:, :2]).norm(dim=-1) > V2_NEAR_BOX)
     carry = polyline_distance(top, [above_start, goal], (~low_and_far).long())
     carry0 = polyline_distance(top_init, [above_start, goal], torch.zeros_like(top[:, 0], dtype=torch.long))
-    return grasp_carry_reward(action, tcp, lid, lid_init, init_tcp, top[:, 2] - top_init[:, 2], carry, carry0,
-                              hold_radius=V2_HOLD_RADIUS, lift_height=0.1, place_radius=SUCCESS_RADIUS)
+    return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, lid, lid_init, init_tcp,
+                              top[:, 2] - top_init[:, 2], carry, carry0,
+                              obj_radius=0.01, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
+                              hold_radius=V2_HOLD_RADIUS, place_radius=SUCCESS_RADIUS)
 
 
 def box_close_success(lid_base: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -109,7 +111,7 @@ class BoxClose(FreeObjectTask):
     quaternion term but, unlike Meta-World, does not multiply the reward by it.
     Success (MTBench and Meta-World): ``‖top_link − goal‖ < 0.08``: the lid held over the box, or lying on it
     within 3.3 cm of the box's centre.
-    ``reward_version="v2"``: :func:`box_close_reward_v2` (staged reach, grip, lift, carry over the walls).
+    ``reward_version="v2"``: :func:`box_close_reward_v2` (pick_place's form on the handle bar, path over the walls).
     """
 
     name = "box_close"
@@ -154,8 +156,8 @@ class BoxClose(FreeObjectTask):
         return box_close_reward(action, s.sim.site_xpos[:, self.lid_site], s.tcp, s.goal)
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
-        return box_close_reward_v2(action, s.obj_pos, s.sim.site_xpos[:, self.lid_site], s.tcp, s.goal,
-                                   s.obj_init_pos, s.init_tcp)
+        return box_close_reward_v2(action, s.obj_pos, s.sim.site_xpos[:, self.lid_site], s.tcp, s.left_pad, s.right_pad,
+                                   s.gripper_open, s.goal, s.obj_init_pos, s.init_tcp)
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return box_close_success(s.obj_pos, s.goal)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import (grasp_carry_reward, gripper_caging_reward, hamacher_product, polyline_distance,
+from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, polyline_distance,
                             rect_prism_tolerance, tolerance)
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
@@ -53,25 +53,28 @@ GRASP_FROM_BODY = (0.03, 0.0, 0.01)  # the pegGrasp site in the peg body frame (
 
 
 def peg_insert_side_reward_v2(action: torch.Tensor, obj: torch.Tensor, head: torch.Tensor, tcp: torch.Tensor,
+                              left_pad: torch.Tensor, right_pad: torch.Tensor, gripper_open: torch.Tensor,
                               goal: torch.Tensor, peg_init: torch.Tensor, head_init: torch.Tensor,
                               init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_carry_reward` with the
-    pegGrasp site as grasp point and the peg head as object, hold radius 3 cm, lift stage 10 cm, and the carry
-    measured along the path head -> entry point 12 cm in front of the hole on its axis -> goal, straight in once
-    the head is lined up with the hole (within 1.5 cm in y and z) and no farther out than the entry point.
+    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+    form) with the pegGrasp site as grasp point and the peg head as object, hold radius 3 cm, and the carry measured
+    along the path head -> entry point 12 cm in front of the hole on its axis -> goal, straight in once the head is
+    lined up with the hole (within 1.5 cm in y and z) and no farther out than the entry point.
 
     Why: the paper-era reward multiplies its long-tail ``in_place`` by the two box-shaped terms in front of the
     block (1 outside them, a ramp inside), pays the carry only with the peg 1 cm up, and measures a straight
     distance to the hole through the block (9% for MT-PPO). The path here lines the peg up in front of the
-    hole first and pays every centimetre of it.
+    hole first.
     """
     entry = offset(goal, V2_ENTRY, 0.0, 0.0)
     aligned = ((head[:, 1:] - goal[:, 1:]).abs() < V2_ALIGNED).all(dim=-1) & (head[:, 0] < entry[:, 0] + 0.02)
     carry = polyline_distance(head, [entry, goal], aligned.long())
     carry0 = polyline_distance(head_init, [entry, goal], torch.zeros_like(head[:, 0], dtype=torch.long))
     grasp_init = offset(peg_init, *GRASP_FROM_BODY)
-    return grasp_carry_reward(action, tcp, obj, grasp_init, init_tcp, obj[:, 2] - grasp_init[:, 2], carry, carry0,
-                              hold_radius=V2_HOLD_RADIUS, lift_height=0.1, place_radius=TARGET_RADIUS)
+    return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, grasp_init, init_tcp,
+                              obj[:, 2] - grasp_init[:, 2], carry, carry0,
+                              obj_radius=0.02, pad_success_thresh=0.05, object_reach_radius=0.0, xz_thresh=0.005,
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
 
 
 def peg_insert_side_success(head: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -109,7 +112,7 @@ class PegInsertSide(MetaWorldTask):
     (x, y, z) by (1, 2, 2), the same ``d``; Meta-World: ``d ≤ 0.07``). MTBench's own target was 6 cm shallower
     (block + (0.09, 0, 0.13) in this frame, for its own block asset); we keep Meta-World's block and target.
 
-    ``reward_version="v2"``: :func:`peg_insert_side_reward_v2` (staged reach, grip, lift, line up, insert).
+    ``reward_version="v2"``: :func:`peg_insert_side_reward_v2` (pick_place's form on pegGrasp, path: line up, insert).
     """
 
     name = "peg_insert_side"
@@ -152,8 +155,9 @@ class PegInsertSide(MetaWorldTask):
                                       *(x[:, i] for i in self.box_sites))
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
-        return peg_insert_side_reward_v2(action, s.obj_pos, s.sim.site_xpos[:, self.head_site], s.tcp, s.goal,
-                                         s.obj_init_pos, s.buffers["head_init"], s.init_tcp)
+        return peg_insert_side_reward_v2(action, s.obj_pos, s.sim.site_xpos[:, self.head_site], s.tcp, s.left_pad,
+                                         s.right_pad, s.gripper_open, s.goal, s.obj_init_pos, s.buffers["head_init"],
+                                         s.init_tcp)
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return peg_insert_side_success(s.sim.site_xpos[:, self.head_site], s.goal)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import grasp_carry_reward, gripper_caging_reward, hamacher_product, polyline_distance, tolerance
+from ..reward_utils import grasp_place_reward, gripper_caging_reward, hamacher_product, polyline_distance, tolerance
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState
 from ._wall import MIDPOINT_Y, V2_BEHIND_Y, V2_HOLD_RADIUS, V2_LIFT_Y, scaled_norm, wall_stage
@@ -51,17 +51,18 @@ def pick_place_wall_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open
 V2_OVER_Z = 0.165  # v2: puck centre height that clears the 12 cm wall with the hand above it (scripted: 0.165)
 
 
-def pick_place_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tensor, goal: torch.Tensor,
+def pick_place_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tensor, left_pad: torch.Tensor,
+                              right_pad: torch.Tensor, gripper_open: torch.Tensor, goal: torch.Tensor,
                               obj_init_pos: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_carry_reward` with the
-    puck as grasp point and object, hold radius 2.5 cm, lift stage up to the crossing height, and the carry
-    measured along the path lift (above the puck's start, at most at y = 0.625) -> over the wall at 0.165 ->
-    behind it (y = 0.87, above the goal) -> goal, from the puck's current waypoint on (:func:`._wall.wall_stage`).
+    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+    form) with the puck as grasp point and object, hold radius 2.5 cm, and the carry measured along the path lift (above
+    the puck's start, at most at y = 0.625) -> over the wall at 0.165 -> behind it (y = 0.87, above the goal) -> goal,
+    from the puck's current waypoint on (:func:`._wall.wall_stage`).
 
     Why: the paper-era reward steers the puck to a midpoint *at the goal's height* just behind the wall (a straight
     line from the puck's start through the wall), pays the grasp through a hamacher product with that long-tail
     term and the carry only in the hand and 1.5 cm up; MT-PPO never lifts the puck over the wall (0%). The path
-    here goes over the wall, and the staged reward pays for every part of it.
+    here goes over the wall, and pick_place's form pays for the grasp and the way along it.
     """
     lift = torch.stack([obj_init_pos[:, 0], obj_init_pos[:, 1].clamp_max(V2_LIFT_Y),
                         torch.full_like(obj[:, 2], V2_OVER_Z)], dim=-1)
@@ -70,9 +71,10 @@ def pick_place_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torc
     points = [lift, behind, goal]
     carry = polyline_distance(obj, points, wall_stage(obj, obj[:, 2] >= V2_OVER_Z - 0.02))
     carry0 = polyline_distance(obj_init_pos, points, torch.zeros_like(obj[:, 0], dtype=torch.long))
-    return grasp_carry_reward(action, tcp, obj, obj_init_pos, init_tcp, obj[:, 2] - obj_init_pos[:, 2], carry,
-                              carry0, hold_radius=V2_HOLD_RADIUS, lift_height=V2_OVER_Z - OBJ_Z,
-                              place_radius=TARGET_RADIUS)
+    return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, obj_init_pos, init_tcp,
+                              obj[:, 2] - obj_init_pos[:, 2], carry, carry0,
+                              obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
 
 
 def pick_place_wall_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -113,7 +115,7 @@ class PickPlaceWall(FreeObjectTask):
     * Success (MTBench): ``d_s(obj − goal) < 0.08``; on success steps MTBench pays 10 only where
       ``d_s(obj − goal) < 0.05`` and otherwise the dense reward times 0.01, not multiplied by its reward scale
       (``success_reward``). Meta-World: ``‖obj − goal‖ ≤ 0.07``.
-    * ``reward_version="v2"``: :func:`pick_place_wall_reward_v2` (staged reach, grip, lift, carry over the wall);
+    * ``reward_version="v2"``: :func:`pick_place_wall_reward_v2` (pick_place's form, path over the wall);
       success steps pay 10.
     """
 
@@ -136,7 +138,8 @@ class PickPlaceWall(FreeObjectTask):
         return pick_place_wall_success_reward(self.reward(s, action) * self.dense_scale, s.obj_pos, s.goal)
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
-        return pick_place_wall_reward_v2(action, s.obj_pos, s.tcp, s.goal, s.obj_init_pos, s.init_tcp)
+        return pick_place_wall_reward_v2(action, s.obj_pos, s.tcp, s.left_pad, s.right_pad, s.gripper_open, s.goal,
+                                         s.obj_init_pos, s.init_tcp)
 
     def success_reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         """v2 pays the constant 10 on every success step (the paper-era rule pays ~0.05 on the success steps

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import grasp_carry_reward, gripper_caging_reward, polyline_distance, tolerance
+from ..reward_utils import grasp_place_reward, gripper_caging_reward, polyline_distance, tolerance
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState
 from ._wall import MIDPOINT_Y, V2_BEHIND_Y, V2_HOLD_RADIUS, V2_LIFT_Y, scaled_norm, wall_stage
@@ -39,21 +39,21 @@ def push_wall_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: torc
 V2_LANE_X = -0.07  # v2: puck x while passing the wall's left end (-0.02) with the hand (2.5 cm half width) beside it
 V2_IN_LANE = V2_LANE_X + 0.015
 V2_CARRY_Z = 0.03  # v2: puck centre 1 cm above the table while carried
-V2_LIFT = 0.01
 
 
-def push_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tensor, goal: torch.Tensor,
+def push_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tensor, left_pad: torch.Tensor,
+                        right_pad: torch.Tensor, gripper_open: torch.Tensor, goal: torch.Tensor,
                         obj_init_pos: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_carry_reward` with the
-    puck as grasp point and object, hold radius 2.5 cm, lift stage 1 cm, and the carry measured along the path
-    around the wall's left end: sideways in front of the wall (y = 0.625) into the lane x = -0.07, along the lane to
-    behind the wall (y = 0.87), then to the goal, from the puck's current waypoint on (0 outside the lane in front
-    of the wall, 1 in the lane, 2 past the wall: :func:`._wall.wall_stage`).
+    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+    form) with the puck as grasp point and object, hold radius 2.5 cm, and the carry measured along the path around the
+    wall's left end: sideways in front of the wall (y = 0.625) into the lane x = -0.07, along the lane to behind the
+    wall (y = 0.87), then to the goal, from the puck's current waypoint on (0 outside the lane in front of the wall, 1
+    in the lane, 2 past the wall: :func:`._wall.wall_stage`).
 
     Why: the paper-era reward pays reaching through the caging term (at most ~0.5), and the way around the wall
     through a long-tail term towards a point behind the wall's end with the forward distance counted three times,
-    which pays for pushing the puck straight into the wall; MT-PPO stays at 0%. The staged reward pays reaching,
-    gripping and every centimetre along a path that clears the wall with the hand.
+    which pays for pushing the puck straight into the wall; MT-PPO stays at 0%. v2 pays the grasp (caging) and,
+    with the puck held and 1 cm up, the way along a path that clears the wall with the hand.
     """
     z = torch.full_like(obj[:, 2], V2_CARRY_Z)
     lane_front = torch.stack([torch.full_like(z, V2_LANE_X), obj_init_pos[:, 1].clamp_max(V2_LIFT_Y), z], dim=-1)
@@ -61,8 +61,10 @@ def push_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tens
     points = [lane_front, lane_back, goal]
     carry = polyline_distance(obj, points, wall_stage(obj, obj[:, 0] <= V2_IN_LANE))
     carry0 = polyline_distance(obj_init_pos, points, torch.zeros_like(obj[:, 0], dtype=torch.long))
-    return grasp_carry_reward(action, tcp, obj, obj_init_pos, init_tcp, obj[:, 2] - obj_init_pos[:, 2], carry,
-                              carry0, hold_radius=V2_HOLD_RADIUS, lift_height=V2_LIFT, place_radius=TARGET_RADIUS)
+    return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, obj_init_pos, init_tcp,
+                              obj[:, 2] - obj_init_pos[:, 2], carry, carry0,
+                              obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
 
 
 def push_wall_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -91,7 +93,7 @@ class PushWall(FreeObjectTask):
       (3, 1, 1) of its x axis, our y (Meta-World: mid = (-0.05, 0.77, obj_z), scaling of x, and
       ``hamacher(grasp, part1)`` with high-density caging).
     * Success: ``‖obj − goal‖ < 0.05`` (MTBench; Meta-World ``≤ 0.07``).
-    * ``reward_version="v2"``: :func:`push_wall_reward_v2` (staged reach, grip, carry around the wall's end).
+    * ``reward_version="v2"``: :func:`push_wall_reward_v2` (pick_place's form, path around the wall's end).
     """
 
     name = "push_wall"
@@ -111,7 +113,8 @@ class PushWall(FreeObjectTask):
                                 s.obj_init_pos, s.init_tcp, self.midpoint.expand_as(s.obj_pos))
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
-        return push_wall_reward_v2(action, s.obj_pos, s.tcp, s.goal, s.obj_init_pos, s.init_tcp)
+        return push_wall_reward_v2(action, s.obj_pos, s.tcp, s.left_pad, s.right_pad, s.gripper_open, s.goal,
+                                   s.obj_init_pos, s.init_tcp)
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return push_wall_success(s.obj_pos, s.goal)

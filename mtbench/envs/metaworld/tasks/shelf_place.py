@@ -6,7 +6,7 @@ from __future__ import annotations
 import mujoco
 import torch
 
-from ..reward_utils import grasp_carry_reward, gripper_caging_reward, hamacher_product, polyline_distance, tolerance
+from ..reward_utils import grasp_place_reward, gripper_caging_reward, hamacher_product, polyline_distance, tolerance
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState, offset
 
@@ -58,24 +58,27 @@ V2_IN_FRONT = 0.13  # v2: the block (2 cm half size) is in front of the board wh
 V2_BELOW = 0.03  # v2: a block more than this below the goal is below the board's top (goal: 5 cm above it)
 
 
-def shelf_place_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tensor, goal: torch.Tensor,
+def shelf_place_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tensor, left_pad: torch.Tensor,
+                          right_pad: torch.Tensor, gripper_open: torch.Tensor, goal: torch.Tensor,
                           obj_init_pos: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_carry_reward` with the
-    block as grasp point and object, hold radius 2.5 cm, lift stage 10 cm, and the carry measured along the path
-    up to a point 16 cm in front of the goal at the goal's height, then straight in, while the block is in front
-    of the board or below its top; straight to the goal otherwise.
+    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+    form) with the block as grasp point and object, hold radius 2.5 cm, and the carry measured along the path up to a
+    point 16 cm in front of the goal at the goal's height, then straight in, while the block is in front of the board or
+    below its top; straight to the goal otherwise.
 
     Why: the paper-era reward takes from its long-tail ``in_place`` term in a band in front of the shelf up to
     the goal's height and pays 0 behind the goal, so carrying the block towards the shelf is punished on most of
     the way, and it pays the carry only in the hand and 1 cm up (0% for MT-PPO). The path here is the one that
-    clears the board (the scripted policy's), and every centimetre of it pays.
+    clears the board (the scripted policy's).
     """
     front = torch.stack([goal[:, 0], goal[:, 1] - V2_FRONT, goal[:, 2]], dim=-1)
     outside = (obj[:, 1] < goal[:, 1] - V2_IN_FRONT) | (obj[:, 2] < goal[:, 2] - V2_BELOW)
     carry = polyline_distance(obj, [front, goal], (~outside).long())
     carry0 = polyline_distance(obj_init_pos, [front, goal], torch.zeros_like(obj[:, 0], dtype=torch.long))
-    return grasp_carry_reward(action, tcp, obj, obj_init_pos, init_tcp, obj[:, 2] - obj_init_pos[:, 2], carry,
-                              carry0, hold_radius=V2_HOLD_RADIUS, lift_height=0.1, place_radius=TARGET_RADIUS)
+    return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, obj_init_pos, init_tcp,
+                              obj[:, 2] - obj_init_pos[:, 2], carry, carry0,
+                              obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
 
 
 def shelf_place_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -112,7 +115,7 @@ class ShelfPlace(FreeObjectTask):
       1.327, 0, 1)`` (MTBench divides by the absolute height 1.027 + 0.3 of its frame; Meta-World's band is
       0 < z < 0.24, divided by 0.24, and it uses ``obj_radius=.02, xz_thresh=.01`` without medium density).
     * Success: ``‖obj − goal‖ < 0.05`` (MTBench; Meta-World ``≤ 0.07``).
-    * ``reward_version="v2"``: :func:`shelf_place_reward_v2` (staged reach, grip, lift, carry in front of the
+    * ``reward_version="v2"``: :func:`shelf_place_reward_v2` (pick_place's form, path in front of the
       shelf and in).
     """
 
@@ -149,7 +152,8 @@ class ShelfPlace(FreeObjectTask):
                                   s.obj_init_pos, s.init_tcp)
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
-        return shelf_place_reward_v2(action, s.obj_pos, s.tcp, s.goal, s.obj_init_pos, s.init_tcp)
+        return shelf_place_reward_v2(action, s.obj_pos, s.tcp, s.left_pad, s.right_pad, s.gripper_open, s.goal,
+                                     s.obj_init_pos, s.init_tcp)
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return shelf_place_success(s.obj_pos, s.goal)
