@@ -3,6 +3,8 @@ rewards, domain randomization, curriculum, statistics, failed-physics resets, ch
 
 from __future__ import annotations
 
+import math
+
 from types import SimpleNamespace
 
 import numpy as np
@@ -215,6 +217,26 @@ def test_reward_terms_on_constructed_states() -> None:
     clipped, _ = compute_reward(state, REWARD_SCALES, 0.02, only_positive=True)
     torch.testing.assert_close(clipped, expected.clamp(min=0).float())
     assert (expected < 0).any() and set(terms) == set(REWARD_SCALES)
+
+
+def test_orientation_term_is_off_by_default_and_measures_the_tilt() -> None:
+    """legged_gym's orientation term (not an MTBench Go1 term): g_x^2 + g_y^2 of gravity in the trunk frame."""
+    from mtbench.envs.parkour.rewards import orientation
+
+    roll, pitch = 0.4, 0.3
+    quats = torch.tensor([
+        [1.0, 0.0, 0.0, 0.0],  # level
+        [math.cos(roll / 2), math.sin(roll / 2), 0.0, 0.0],  # rolled
+        [math.cos(pitch / 2), 0.0, math.sin(pitch / 2), 0.0],  # pitched
+        [math.cos(0.7), 0.0, 0.0, math.sin(0.7)],  # yawed only: level
+    ])
+    state = SimpleNamespace(base_quat=quats)
+    torch.testing.assert_close(orientation(state),
+                               torch.tensor([0.0, math.sin(roll) ** 2, math.sin(pitch) ** 2, 0.0]), atol=1e-6, rtol=0)
+    assert "orientation" not in REWARD_SCALES
+    total, terms = compute_reward(state, {"orientation": -1.0}, 0.02, only_positive=False)
+    torch.testing.assert_close(total, -0.02 * orientation(state))
+    assert set(terms) == {"orientation"}
 
 
 def test_env_reward_is_the_clipped_sum_of_its_terms_and_legs_collide() -> None:

@@ -6,7 +6,10 @@ by ``scale * dt`` (dt = 0.02 s, the policy step) and, with ``only_positive``, cl
 State read from ``env`` (all ``[N, ...]`` tensors, world frame unless noted):
 ``target_pos_rel`` (current goal xy - base xy), ``base_lin_vel_world``, ``command`` (forward speed), ``target_yaw``,
 ``yaw``, ``joint_torque``, ``joint_vel``, ``body_contact_force`` (``[N, nbody, 3]``) and ``penalized_bodies`` (body ids
-of the thighs and calves).
+of the thighs and calves); ``base_quat`` (w, x, y, z) for ``orientation``.
+
+``orientation`` is not one of MTBench's Go1 terms (not in :data:`REWARD_SCALES`, so it is off): it is legged_gym's
+``_reward_orientation``, for ablations of the trunk's posture (``reward_scales``).
 """
 
 from __future__ import annotations
@@ -14,6 +17,8 @@ from __future__ import annotations
 from typing import Callable, Mapping
 
 import torch
+
+from .rotations import quat_rotate_inverse
 
 EPS = 1e-5
 COLLISION_FORCE = 0.1  # N: a thigh/calf "collides" above this contact force
@@ -48,11 +53,21 @@ def collision(env) -> torch.Tensor:
     return (torch.linalg.vector_norm(force, dim=-1) > COLLISION_FORCE).float().sum(-1)
 
 
+def orientation(env) -> torch.Tensor:
+    """``g_x^2 + g_y^2`` of gravity's unit vector in the trunk frame (legged_gym's ``_reward_orientation``): 0 level,
+    ``sin^2`` of the tilt for a pure roll or pitch. Not an MTBench Go1 term (off by default)."""
+    down = torch.zeros_like(env.base_quat[:, 1:])
+    down[:, 2] = -1.0
+    g = quat_rotate_inverse(env.base_quat, down)
+    return torch.square(g[:, 0]) + torch.square(g[:, 1])
+
+
 REWARD_FUNCTIONS: dict[str, Callable[[object], torch.Tensor]] = {
     "tracking_goal_vel": tracking_goal_vel,
     "tracking_yaw": tracking_yaw,
     "energy_cost": energy_cost,
     "collision": collision,
+    "orientation": orientation,
 }
 REWARD_SCALES: dict[str, float] = {
     "tracking_goal_vel": 4.0,
