@@ -52,7 +52,7 @@ def shelf_place_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: to
     return torch.where(lifted, reward + 1.0 + 5.0 * in_place, reward)
 
 
-V2_HOLD_RADIUS = 0.02  # v2: TCP within 2 cm of the block's centre (pick_place's; 2.5 cm placed later on the CPU: docs/metaworld.md)
+V2_HOLD_RADIUS = 0.02  # v2: TCP within 2 cm of the block's centre (pick_place's value)
 V2_FRONT = 0.16  # v2: the block waits this far in front of the goal (the board's front edge is 11 cm in front)
 V2_IN_FRONT = 0.13  # v2: the block (2 cm half size) is in front of the board while y < goal_y - this
 V2_BELOW = 0.03  # v2: a block more than this below the goal is below the board's top (goal: 5 cm above it)
