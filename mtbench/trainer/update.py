@@ -227,10 +227,10 @@ class MinibatchUpdate:
                 else:
                     vector = self._vector(self.step(batch[idx]))
                 self._write_reference(batch, idx)
-                total = vector.clone() if total is None else total.add_(vector)
                 epoch_total = vector.clone() if epoch_total is None else epoch_total.add_(vector)
             assert epoch_total is not None
             self.call_hooks("on_epoch_end", self._means(epoch_total, num_minibatches))
+            total = epoch_total if total is None else total.add_(epoch_total)
         count = epochs * num_minibatches
         assert total is not None and self.metric_keys is not None
         return self._means(total, count), count
