@@ -13,7 +13,8 @@ Parkour settings (``--env parkour_flat|parkour_easy|parkour_hard|parkour_hard_cl
 env with ``--policy trot`` (default for Parkour: the trot-in-place joint targets of ``parkour_collision.py``),
 ``stand`` (zero actions: hold the default pose) or ``random`` (uniform actions in [-1, 1] rad); the robots walk in
 place on their tiles, fall, time out and reset as in training. ``--terrain-collision`` and
-``--terrain-representation`` select the scene (``mtbench.envs.parkour.scene``), ``--num-rows`` the grid size.
+``--terrain-representation`` select the scene (``mtbench.envs.parkour.scene``), ``--num-rows`` the grid size,
+``--robot-inertia``, ``--robot-armature`` and ``--robot-integrator`` the Go1's model (docs/parkour.md).
 
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 4096 --device cuda
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 --policy scripted
@@ -123,14 +124,20 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
             parallel_streams: bool = True, torch_graphs: bool = True, policy: str = "random",
             robot_collision: str = "primitive", box_box: str = "primitive",
             terrain_collision: str = parkour_robot.DEFAULT_TERRAIN_COLLISION, terrain_representation: str = "grid",
-            num_rows: int = 10, compile_stages: bool = False, phases: bool = False) -> dict:
+            num_rows: int = 10, compile_stages: bool = False, phases: bool = False,
+            robot_joints: tuple[str, float | None, str] = (parkour_robot.DEFAULT_INERTIAL_MODEL, None,
+                                                           parkour_robot.DEFAULT_INTEGRATOR)) -> dict:
     parkour = is_parkour(env_name)
     if parkour:
         if policy == "scripted":
             raise ValueError("--policy scripted is for Meta-World; Parkour takes trot, stand or random")
+        inertia, armature, integrator = robot_joints
         overrides = {"torch_graphs": torch_graphs, "terrain_collision": terrain_collision,
-                     "terrain_representation": terrain_representation, "num_rows": num_rows}
+                     "terrain_representation": terrain_representation, "num_rows": num_rows,
+                     "robot_inertia": inertia, "robot_armature": armature, "robot_integrator": integrator}
         collision = f"{terrain_collision} on {terrain_representation}"
+        if robot_joints != (parkour_robot.DEFAULT_INERTIAL_MODEL, None, parkour_robot.DEFAULT_INTEGRATOR):
+            collision += f"; {inertia}, armature {parkour_robot.joint_armature(inertia, armature):g}, {integrator}"
     else:
         if policy in ("trot", "stand"):
             raise ValueError(f"--policy {policy} is for Parkour; Meta-World takes random or scripted")
@@ -202,6 +209,12 @@ def main() -> None:
     parser.add_argument("--terrain-representation", choices=("tiles", "grid"), default="tiles",
                         help="Parkour: one heightfield per tile (default) or one for the whole grid")
     parser.add_argument("--num-rows", type=int, default=10, help="Parkour: difficulty rows of the terrain grid")
+    parser.add_argument("--robot-inertia", choices=parkour_robot.INERTIAL_MODELS,
+                        default=parkour_robot.DEFAULT_INERTIAL_MODEL, help="Parkour: the Go1's inertial model")
+    parser.add_argument("--robot-armature", type=float, default=None,
+                        help="Parkour: joint armature in kg m^2 (default: the inertial model's)")
+    parser.add_argument("--robot-integrator", choices=tuple(parkour_robot.INTEGRATORS),
+                        default=parkour_robot.DEFAULT_INTEGRATOR, help="Parkour: euler or implicitfast")
     parser.add_argument("--compile-stages", action="store_true", help="Meta-World: torch.compile the env's torch stages")
     parser.add_argument("--phases", action="store_true",
                         help="Meta-World: also time each part of a step on its own (ms per step)")
@@ -218,7 +231,8 @@ def main() -> None:
                     parallel_streams=not args.one_stream, torch_graphs=not args.eager_torch, policy=args.policy,
                     robot_collision=args.robot_collision, box_box=args.box_box,
                     terrain_collision=args.terrain_collision, terrain_representation=args.terrain_representation,
-                    num_rows=args.num_rows, compile_stages=args.compile_stages, phases=args.phases)
+                    num_rows=args.num_rows, compile_stages=args.compile_stages, phases=args.phases,
+                    robot_joints=(args.robot_inertia, args.robot_armature, args.robot_integrator))
         print(f"| {r['env']} | {r['num_envs']} | {r['policy']} | {r['collision']} | {r['mode']} | {r['substeps']} | "
               f"{r['env_steps_per_s']:,.0f} | {r['physics_steps_per_s']:,.0f} | {r['ms_per_step']:.2f} | "
               f"{r['contacts_per_world']:.2f} | {r['success']:.1%} | {r['build_s']:.1f} | {r['first_step_s']:.1f} | "

@@ -88,6 +88,18 @@ def test_pd_torques_match_hand_computation_in_mujoco_c(scene) -> None:
     assert np.all(m.dof_damping[6:] == 0) and np.all(m.dof_frictionloss[6:] == 0)
 
 
+def _step_random_states(sim: WarpSim, seed: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Put each of ``sim``'s worlds in a random airborne state (``_random_state``), take one physics step and return
+    the ``(qpos, qvel, ctrl)`` it started from."""
+    rng = np.random.default_rng(seed)
+    states = [_random_state(rng) for _ in range(sim.qpos.shape[0])]
+    for k, field in enumerate((sim.qpos, sim.qvel, sim.ctrl)):
+        field.copy_(torch.tensor(np.stack([s[k] for s in states]), dtype=torch.float32))
+    sim.kinematics()
+    sim.step()
+    return states
+
+
 def test_pd_torques_with_motor_strengths_in_warp_and_c(scene) -> None:
     m = scene.mjm
     n = 3
@@ -95,13 +107,7 @@ def test_pd_torques_with_motor_strengths_in_warp_and_c(scene) -> None:
                   use_graph=False)
     params = domain_rand.sample(n, torch.Generator().manual_seed(1), "cpu")
     domain_rand.apply(sim, m, params)
-    rng = np.random.default_rng(2)
-    states = [_random_state(rng) for _ in range(n)]
-    sim.qpos.copy_(torch.tensor(np.stack([s[0] for s in states]), dtype=torch.float32))
-    sim.qvel.copy_(torch.tensor(np.stack([s[1] for s in states]), dtype=torch.float32))
-    sim.ctrl.copy_(torch.tensor(np.stack([s[2] for s in states]), dtype=torch.float32))
-    sim.kinematics()
-    sim.step()  # actuator_force is computed from the state at the start of the step
+    states = _step_random_states(sim, 2)  # actuator_force is computed from the state at the start of the step
     warp_force = sim.data.actuator_force.numpy()
     ms = params.motor_strength.numpy()
     for w, (qpos, qvel, ctrl) in enumerate(states):
@@ -117,6 +123,30 @@ def test_pd_torques_with_motor_strengths_in_warp_and_c(scene) -> None:
         mujoco.mj_step(mc, d)
         np.testing.assert_allclose(d.actuator_force, expected, atol=1e-5)
     assert not np.allclose(ms[0, 0], ms[0, 1])
+
+
+def test_implicitfast_step_in_warp_matches_mujoco_c(terrain) -> None:
+    """``robot_integrator="implicitfast"`` with the armature-free URDF model (the original's joints): MuJoCo Warp's
+    step (implicit actuator damping, no derivative for clamped torques) gives MuJoCo C's velocities, for airborne
+    robots with random joint states (some torques clamped), and differs from the Euler step of the same model."""
+    velocities = {}
+    for integrator in ("implicitfast", "euler"):
+        scene = build_scene(terrain, "legs", "grid", robot_inertia="urdf", robot_armature=0.0,
+                            robot_integrator=integrator)
+        assert scene.robot_armature == 0.0 and scene.robot_integrator == integrator
+        m, n = scene.mjm, 3
+        sim = WarpSim(m, n, "cpu", substeps=1, nconmax=48, njmax=160, use_graph=False)
+        states = _step_random_states(sim, 5)
+        clamped = 0
+        for w, (qpos, qvel, ctrl) in enumerate(states):
+            d = mujoco.MjData(m)
+            d.qpos[:], d.qvel[:], d.ctrl[:] = qpos, qvel, ctrl
+            mujoco.mj_step(m, d)
+            clamped += int(np.sum(np.abs(d.actuator_force) >= robot.TORQUE_LIMIT - 1e-6))
+            np.testing.assert_allclose(sim.qvel[w].numpy(), d.qvel, atol=5e-3, rtol=1e-3)
+        assert 0 < clamped < 3 * 12  # both clamped and unclamped joints took part
+        velocities[integrator] = sim.qvel.numpy().copy()
+    assert np.abs(velocities["implicitfast"] - velocities["euler"]).max() > 0.1
 
 
 def test_heightfield_holds_the_terrain_heights(terrain, scene) -> None:

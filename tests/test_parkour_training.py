@@ -76,7 +76,8 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     stage = flat_stage_config(cfg)
     assert stage.env.name == "parkour_flat" and stage.env.num_envs == 42
     # the grid and the collision set kept, the fine-tuning's curriculum dropped
-    assert dict(stage.env.overrides) == {"num_rows": 2, "terrain_collision": "all", "robot_inertia": "menagerie"}
+    assert dict(stage.env.overrides) == {"num_rows": 2, "terrain_collision": "all", "robot_inertia": "menagerie",
+                                         "robot_armature": None, "robot_integrator": "euler"}
     assert stage.grad.name == "none"  # gradient methods start from the plain architecture's weights
     assert stage.max_iterations == 1 and stage.total_frames is None and stage.seed == 0
     key = stage_key(stage)
@@ -96,8 +97,19 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
                                   "env.overrides.robot_inertia=urdf"))
     assert urdf.env.overrides.robot_inertia == "urdf" and stage_key(urdf) != key
     without = flat_stage_config(cfg)
-    del without.env.overrides["robot_inertia"]
+    for name in ("robot_inertia", "robot_armature", "robot_integrator"):
+        del without.env.overrides[name]
     assert stage_key(without) == key
+    # the armature and the integrator too; the default armature named explicitly is the default model
+    keys = {key}
+    for other in (["env.overrides.robot_armature=0.0"], ["env.overrides.robot_integrator=implicitfast"],
+                  ["env.overrides.robot_armature=0.0", "env.overrides.robot_integrator=implicitfast"],
+                  ["env.overrides.robot_inertia=urdf", "env.overrides.robot_armature=0.0",
+                   "env.overrides.robot_integrator=implicitfast"]):
+        keys.add(stage_key(flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other))))
+    assert len(keys) == 5
+    assert stage_key(flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour",
+                                            "env.overrides.robot_armature=0.01"))) == key
     # and so does a new robot model (a physics change)
     monkeypatch.setattr("mtbench.envs.parkour.robot.MODEL_VERSION", "another-model")
     assert stage_key(stage) != key

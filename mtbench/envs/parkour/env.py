@@ -82,6 +82,10 @@ class ParkourEnv(EnvBase):
         robot_inertia: the Go1's masses, centres of mass, inertias and joint armature: ``"menagerie"`` (default,
             12.74 kg) or ``"urdf"`` (the original's ``go1_with_camera.urdf``, 11.31 kg; ``robot.INERTIAL_MODELS``,
             docs/parkour.md).
+        robot_armature: the joints' rotor armature in kg m^2 (None: the inertial model's, 0.01 / 0.007; the original
+            has 0, which needs ``robot_integrator="implicitfast"``).
+        robot_integrator: ``"euler"`` (default: explicit PD damping) or ``"implicitfast"`` (MuJoCo's implicit
+            actuator damping, stable without armature; ``robot.INTEGRATORS``).
         terrain_representation: ``"tiles"`` (one heightfield per tile, selected per world; physics in tile
             frames) or ``"grid"`` (one heightfield for the whole grid; MuJoCo Warp's heightfield contacts go wrong
             more than ~20 m from its centre: small grids only); see ``scene.py``.
@@ -117,6 +121,8 @@ class ParkourEnv(EnvBase):
         episode_length: int = 2000,
         terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISION,
         robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL,
+        robot_armature: float | None = None,
+        robot_integrator: str = robot.DEFAULT_INTEGRATOR,
         terrain_representation: str = "tiles",
         tile_margin: float = 1.0,
         domain_randomization: bool = True,
@@ -173,7 +179,8 @@ class ParkourEnv(EnvBase):
         self.level = levels.clone()
 
         # physics: one model, one WarpSim, per-world domain randomization
-        self.scene = build_scene(terrain, terrain_collision, terrain_representation, tile_margin, robot_inertia)
+        self.scene = build_scene(terrain, terrain_collision, terrain_representation, tile_margin, robot_inertia,
+                                 robot_armature, robot_integrator)
         mjm = self.scene.mjm
         pairs = self.scene.contact_pairs
         nconmax = 4 * pairs if nconmax is None else nconmax  # MuJoCo Warp makes <= 4 contacts per heightfield pair

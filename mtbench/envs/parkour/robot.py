@@ -43,8 +43,15 @@ positions, no rotated frames, same joint axes; checked by ``tests/test_go1_inert
 blocks go into Menagerie's bodies unchanged. Armature: the original has none (``asset.armature: 0``), but the
 explicit PD is unstable without it (the stability argument above; the URDF's calf is 0.0087 kg m^2 about the knee
 with its foot, yet a swinging leg's joints see much less); ``URDF_JOINT_ARMATURE`` (0.007 kg m^2) is the smallest
-value measured to keep it stable (docs/parkour.md, "Inertial model"). ``model_version(inertia)`` keys the flat
-pre-training stage per model.
+value measured to keep it stable (docs/parkour.md, "Inertial model"). ``model_version(inertia, armature,
+integrator)`` keys the flat pre-training stage per model.
+
+Integrator (the env's ``robot_integrator``): ``"euler"`` (default) integrates the PD's ``-ms1 * KD * qdot`` term
+explicitly, which needs the armature above to be stable. ``"implicitfast"`` (MuJoCo's implicit-in-velocity
+integrator) takes the derivative of every unclamped actuator force with respect to the joint velocities into the
+step, so the damping term is integrated implicitly and the joints are stable without armature: with the env's
+``robot_armature=0`` and ``robot_inertia="urdf"`` this is the original's armature-free URDF Go1 (a clamped torque
+contributes no derivative, as the original's clipped torque has none).
 """
 
 from __future__ import annotations
@@ -71,6 +78,9 @@ JOINT_ARMATURE = 0.01  # kg m^2, Menagerie's value
 # joint limit constraints: the stiffest stable time constant at SIM_DT (2 dt) and near-hard impedance
 JOINT_LIMIT_SOLREF = (0.01, 1.0)
 JOINT_LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+# integrators of the robot's physics: explicit Euler (default) or MuJoCo's implicitfast (implicit actuator damping)
+INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
+DEFAULT_INTEGRATOR = "euler"
 MODEL_VERSION = "go1-2026-11-24-stiff-limits"
 """Changes whenever the robot's physics changes, so that flat pre-training checkpoints of an older model are not
 reused (it is part of the pre-training stage key, through :func:`model_version`)."""
@@ -165,18 +175,39 @@ def urdf_body_inertials() -> dict[str, tuple[float, np.ndarray, np.ndarray]]:
     return bodies
 
 
-def model_version(inertia: str = DEFAULT_INERTIAL_MODEL) -> str:
-    """The robot model's version for the flat pre-training key: ``MODEL_VERSION`` for the default inertial model (its
-    key unchanged), ``MODEL_VERSION`` plus the model and its armature otherwise."""
+def joint_armature(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None = None) -> float:
+    """The joints' rotor armature (kg m^2): ``armature`` if given, else the inertial model's (``JOINT_ARMATURE`` for
+    ``"menagerie"``, ``URDF_JOINT_ARMATURE`` for ``"urdf"``)."""
     _check_inertia(inertia)
-    if inertia == DEFAULT_INERTIAL_MODEL:
+    if armature is None:
+        return JOINT_ARMATURE if inertia == "menagerie" else URDF_JOINT_ARMATURE
+    if isinstance(armature, bool) or not isinstance(armature, (int, float)) or not 0.0 <= float(armature) <= 1.0:
+        raise ValueError(f"robot_armature must be a number in [0, 1] kg m^2 (or None: the inertial model's); "
+                         f"got {armature!r}")
+    return float(armature)
+
+
+def model_version(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None = None,
+                  integrator: str = DEFAULT_INTEGRATOR) -> str:
+    """The robot model's version for the flat pre-training key: ``MODEL_VERSION`` for the default model (Menagerie's
+    inertials and armature, Euler; its key unchanged), ``MODEL_VERSION`` plus the inertial model, the armature and a
+    non-default integrator otherwise."""
+    value = joint_armature(inertia, armature)
+    _check_integrator(integrator)
+    if inertia == DEFAULT_INERTIAL_MODEL and value == JOINT_ARMATURE and integrator == DEFAULT_INTEGRATOR:
         return MODEL_VERSION
-    return f"{MODEL_VERSION}+{inertia}-inertia-armature-{URDF_JOINT_ARMATURE:g}"
+    version = f"{MODEL_VERSION}+{inertia}-inertia-armature-{value:g}"
+    return version if integrator == DEFAULT_INTEGRATOR else f"{version}-{integrator}"
 
 
 def _check_inertia(inertia: str) -> None:
     if inertia not in INERTIAL_MODELS:
         raise ValueError(f"unknown robot inertia {inertia!r}; valid choices: {', '.join(INERTIAL_MODELS)}")
+
+
+def _check_integrator(integrator: str) -> None:
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"unknown robot_integrator {integrator!r}; valid choices: {', '.join(INTEGRATORS)}")
 
 
 def _collision_class(body_name: str) -> str:
@@ -188,7 +219,7 @@ def _collision_class(body_name: str) -> str:
 
 
 def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = DEFAULT_INERTIAL_MODEL,
-             armature: float | None = None) -> mujoco.MjSpec:
+             armature: float | None = None, integrator: str = DEFAULT_INTEGRATOR) -> mujoco.MjSpec:
     """Menagerie Go1 with PD actuators, URDF-like collision shapes, foot bodies and the original's joint dynamics.
 
     Args:
@@ -196,19 +227,19 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = 
             their shape (and the robot its mass) but never make contacts.
         inertia: the links' masses, centres of mass and inertias (and the joints' armature), one of
             ``INERTIAL_MODELS``: ``"menagerie"`` (default) or ``"urdf"`` (the original's; module docstring).
-        armature: joint rotor armature (kg m^2) instead of the model's (``JOINT_ARMATURE`` /
-            ``URDF_JOINT_ARMATURE``); for experiments.
+        armature: joint rotor armature (kg m^2, in [0, 1]) instead of the model's (``JOINT_ARMATURE`` /
+            ``URDF_JOINT_ARMATURE``); below ~0.007 the explicit PD needs ``integrator="implicitfast"``.
+        integrator: ``"euler"`` (default) or ``"implicitfast"`` (``INTEGRATORS``; module docstring).
     """
     if terrain_collision not in TERRAIN_COLLISIONS:
         raise ValueError(f"unknown terrain_collision {terrain_collision!r}; valid choices: "
                          f"{', '.join(TERRAIN_COLLISIONS)}")
-    _check_inertia(inertia)
-    if armature is None:
-        armature = JOINT_ARMATURE if inertia == "menagerie" else URDF_JOINT_ARMATURE
+    armature = joint_armature(inertia, armature)
+    _check_integrator(integrator)
     enabled = TERRAIN_COLLISIONS[: TERRAIN_COLLISIONS.index(terrain_collision) + 1]
     spec = mujoco.MjSpec.from_file(str(menagerie_dir("unitree_go1") / "go1.xml"))
     spec.option.timestep = SIM_DT
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    spec.option.integrator = INTEGRATORS[integrator]
     for item in list(spec.actuators) + list(spec.keys) + list(spec.lights):
         spec.delete(item)
     for geom in list(spec.geoms):

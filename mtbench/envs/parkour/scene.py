@@ -50,6 +50,8 @@ class ParkourScene:
         representation: ``"tiles"`` or ``"grid"``.
         terrain_collision: which robot geoms touch the terrain (``robot.TERRAIN_COLLISIONS``).
         robot_inertia: the robot's inertial model (``robot.INERTIAL_MODELS``).
+        robot_armature: the joints' rotor armature (kg m^2).
+        robot_integrator: the physics integrator (``robot.INTEGRATORS``).
         hfield_geom: id of the terrain heightfield geom.
         tile_offset: float32 ``[num_rows, num_cols, 3]`` world position of each tile's physics frame origin (zeros for
             ``"grid"``: physics coordinates are world coordinates).
@@ -65,6 +67,8 @@ class ParkourScene:
     tile_hfield: np.ndarray
     tile_margin: float
     robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL
+    robot_armature: float = robot.JOINT_ARMATURE
+    robot_integrator: str = robot.DEFAULT_INTEGRATOR
 
     @property
     def contact_pairs(self) -> int:
@@ -78,7 +82,8 @@ def _tile_grid_shape(terrain) -> tuple[int, int]:
 
 
 def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISION, representation: str = "tiles",
-                tile_margin: float = 1.0, robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL) -> ParkourScene:
+                tile_margin: float = 1.0, robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL,
+                robot_armature: float | None = None, robot_integrator: str = robot.DEFAULT_INTEGRATOR) -> ParkourScene:
     """Compile the Go1 and ``terrain`` (a ``terrain.Terrain``) into one MuJoCo model.
 
     Args:
@@ -90,6 +95,8 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
             border).
         robot_inertia: the robot's masses and inertias, one of ``robot.INERTIAL_MODELS`` (``"menagerie"`` or
             ``"urdf"``: the original's; ``robot.py``).
+        robot_armature: the joints' rotor armature (kg m^2); None: the inertial model's.
+        robot_integrator: ``"euler"`` or ``"implicitfast"`` (``robot.INTEGRATORS``).
     """
     if representation not in TERRAIN_REPRESENTATIONS:
         raise ValueError(f"unknown terrain representation {representation!r}; valid choices: "
@@ -123,7 +130,7 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
         tile_offset = offsets
         tile_hfield = np.arange(nrows * ncols, dtype=np.int32).reshape(nrows, ncols)
 
-    spec = robot.go1_spec(terrain_collision, robot_inertia)
+    spec = robot.go1_spec(terrain_collision, robot_inertia, robot_armature, robot_integrator)
     spec.option.iterations = SOLVER_ITERATIONS
     spec.option.ls_iterations = LS_ITERATIONS
     nx, ny = pieces[0].shape
@@ -149,4 +156,6 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
     return ParkourScene(mjm=mjm, representation=representation, terrain_collision=terrain_collision,
                         hfield_geom=hfield_geom, tile_offset=tile_offset, tile_hfield=tile_hfield,
                         tile_margin=float(tile_margin) if representation == "tiles" else 0.0,
-                        robot_inertia=robot_inertia)
+                        robot_inertia=robot_inertia,
+                        robot_armature=robot.joint_armature(robot_inertia, robot_armature),
+                        robot_integrator=robot_integrator)
