@@ -11,11 +11,11 @@ import torch
 
 from mtbench.envs.metaworld.registry import TASKS
 from mtbench.envs.metaworld.reward_utils import grasp_place_reward, polyline_distance, progress
-from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, peg_insert_side, pick_place,
-                                          pick_place_wall, push_wall, shelf_place)
+from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, door_close, peg_insert_side,
+                                          pick_place, pick_place_wall, push_wall, shelf_place)
 
-V2_TASKS = {"basketball", "box_close", "dial_turn", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
-            "shelf_place"}
+V2_TASKS = {"basketball", "box_close", "dial_turn", "disassemble", "door_close", "peg_insert_side", "pick_place_wall",
+            "push_wall", "shelf_place"}
 GRIP = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
 OPEN = torch.tensor([[0.0, 0.0, 0.0, -1.0]])
 
@@ -129,6 +129,24 @@ def test_dial_turn_v2() -> None:
     torch.testing.assert_close(dial_turn.dial_turn_reward_v2(far_tcp, turned, goal, start, init_tcp),
                                torch.tensor([1.0 + 3.0]), atol=1e-3, rtol=0.0)
     close(dial_turn.dial_turn_reward_v2(far_tcp, goal, goal, start, init_tcp), 8.0)  # at the goal: 8
+
+
+def test_door_close_v2() -> None:
+    """Reaching the handle pays up to 2 before the door moves (the paper-era reward pays ~0 there), each centimetre of
+    the handle's way to the goal pays the same, 8 at the goal; the reach term is kept while the door closes."""
+    start, goal = p(-0.25, 0.575, 0.15), p(0.15, 0.84, 0.15)
+    init_tcp = p(-0.5, 0.6, 0.2)
+
+    def v2(tcp: torch.Tensor, obj: torch.Tensor) -> torch.Tensor:
+        return door_close.door_close_reward_v2(tcp, obj, start, goal, init_tcp)
+
+    assert v2(init_tcp, start).item() == pytest.approx(0.2, abs=1e-5)  # long tail: 0.1 at the margin, times 2
+    close(v2(start + p(0.05, 0.0, 0.0), start), 2.0)  # at the handle (5 cm), door open
+    assert 0.2 < v2(start + p(0.1, 0.0, 0.0), start).item() < 2.0 < 8.0 == v2(goal, goal).item()
+    half = start + 0.5 * (goal - start) * (1 - door_close.TARGET_RADIUS / (goal - start).norm())
+    close(v2(init_tcp + p(0.0, -0.3, 0.3), half), 2 * 0.5 + 6 * 0.5)  # hand away: max(reach, close) = close
+    close(v2(half, half), 2.0 + 3.0)
+    assert door_close.door_close_reward(init_tcp, start, start, goal, init_tcp).item() < 1e-6  # paper-era: nothing
 
 
 def _kw(hold: float, place: float, obj_radius: float = 0.015, pad: float = 0.05, reach: float = 0.01) -> dict:
@@ -279,7 +297,7 @@ def test_grasp_place_tasks_in_the_env() -> None:
     tasks = ["basketball", "box_close", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
              "shelf_place"]
     env = make_env(tasks, num_envs=[2] * len(tasks), device="cpu", seed=0, reward_version="v2")
-    assert env.reward_revision == "v2-2026-11-28"
+    assert env.reward_revision == "v2-2026-11-28b"
     td = env.reset()
     g = torch.Generator().manual_seed(0)
     for _ in range(3):
