@@ -175,13 +175,14 @@ def test_first_ctrl_c_stops_after_the_env_step_with_a_checkpoint_that_resumes_ex
 ) -> None:
     full_history = build_trainer(_cfg(tmp_path, "max_iterations=4", f"checkpoint.dir={tmp_path / 'full'}"),
                                  env=_env()).train()
+    before = signal.getsignal(signal.SIGINT)  # default_int_handler; SIG_IGN in a shell's background job
     stopped = build_trainer(_cfg(tmp_path, "max_iterations=4"), env=_env())
     stopped.add_hook(StopAt(iteration=2, step=3))
     history = stopped.train()
     assert len(history) == 2 and stopped.iteration == 2 and stopped.rollout.steps_done == 3
     ckpt = tmp_path / "ckpt" / "ckpt_000002_step0003.pt"
     assert ckpt.is_file() and not (tmp_path / "ckpt" / "final.pt").exists()
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored
+    assert signal.getsignal(signal.SIGINT) is before  # handler restored
     err = capsys.readouterr()
     assert "stopping after the current env step" in err.err and str(ckpt) in err.out
     resumed = build_trainer(_cfg(tmp_path, "max_iterations=4", f"resume={ckpt}"), env=_env())
