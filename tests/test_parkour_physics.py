@@ -51,12 +51,20 @@ def test_robot_joint_order_and_collision_sets() -> None:
     names = [m.joint(m.actuator_trnid[i, 0]).name for i in range(m.nu)]
     assert names == list(robot.JOINT_NAMES)
     assert [m.jnt_qposadr[m.joint(n).id] for n in robot.JOINT_NAMES] == list(range(7, 19))
-    for choice, expected in (("feet", 4), ("legs", 12), ("all", 17)):
+    for choice, expected in (("feet", 4), ("legs", 12), ("all", 18)):
         mc = robot.go1_spec(choice).compile()
         colliding = [mc.geom(g).name for g in range(mc.ngeom) if mc.geom_contype[g]]
         assert len(colliding) == expected, (choice, colliding)
         # never with itself: no robot geom has a conaffinity
         assert not np.any(mc.geom_conaffinity[mc.geom_bodyid != 0])
+    # "all" has the URDF's camera-module box on the trunk: imu_link's collision box (.05 x .11 x .17 at
+    # imu_link + (0.28, 0.06659, 0.0325), imu_joint at trunk + (-0.01592, -0.06659, -0.00617)), merged into the trunk
+    camera = mc.geom("camera_box")
+    assert camera.bodyid == mc.body(robot.BASE_BODY).id and camera.type == mujoco.mjtGeom.mjGEOM_BOX
+    np.testing.assert_allclose(camera.pos, np.add((-0.01592, -0.06659, -0.00617), (0.28, 0.06659, 0.0325)), atol=1e-9)
+    np.testing.assert_allclose(camera.size, np.array([0.05, 0.11, 0.17]) / 2)
+    trunk = mc.geom("trunk_box")
+    assert camera.pos[0] + camera.size[0] - (trunk.pos[0] + trunk.size[0]) == pytest.approx(0.10098)  # 10 cm ahead
     # the joint limits are the original URDF's (hip +-46 deg, thigh -60..240 deg, calf -154.5..-52.5 deg)
     mc = robot.go1_spec().compile()
     for name in robot.JOINT_NAMES:
@@ -311,7 +319,8 @@ def test_set_const_gives_per_world_constants_like_mujoco_c(scene) -> None:
 
 def test_trunk_touches_the_terrain_by_default(terrain) -> None:
     """The default collision set is the original's (every robot geom touches the terrain): a Go1 dropped upside
-    down comes to rest on its trunk box (base height = the box's half height). With ``"legs"`` the box passes
+    down comes to rest on its trunk box and the camera-module box above its front (base height between the trunk
+    box's half height and the camera box's top, 0.111 m above the trunk's origin). With ``"legs"`` the box passes
     into the ground until the thighs catch the robot; policies trained that way crawl with the trunk inside the
     terrain (docs/parkour.md)."""
     rest = {}
@@ -328,7 +337,8 @@ def test_trunk_touches_the_terrain_by_default(terrain) -> None:
     box = mujoco.mjtGeom.mjGEOM_BOX
     trunk = [g for g in range(m.ngeom) if m.geom_bodyid[g] == m.body("trunk").id and m.geom_type[g] == box]
     half_height = float(m.geom_size[trunk[0], 2])
-    assert abs(rest[None] - half_height) < 0.01, (rest, half_height)
+    camera_top = robot.CAMERA_BOX_POS[2] + robot.CAMERA_BOX_HALF_SIZE[2]
+    assert half_height - 0.01 < rest[None] < camera_top + 0.01, (rest, half_height)
     assert rest["legs"] < half_height - 0.03, (rest, half_height)
 
 

@@ -23,8 +23,9 @@ range in 17-33% of the steps (legs splayed sideways; up to 2.3 rad in a fall) an
 
 Collision geometry (``terrain_collision`` below): Menagerie's 42 collision primitives (several overlapping capsules
 and cylinders per link, trunk box + 2 cylinders + 6 head capsules) are replaced by a URDF-like set, the shapes of
-the original's ``go1_with_camera.urdf`` after IsaacGym's ``replace_cylinder_with_capsule``: one trunk box, one hip
-capsule, one thigh capsule and one calf capsule per leg (capsules instead of the URDF's thin link boxes: one
+the original's ``go1_with_camera.urdf`` after IsaacGym's ``replace_cylinder_with_capsule``: one trunk box, the
+camera-module box in front of it (the URDF's ``imu_link`` collision box, which ``collapse_fixed_joints`` merges into
+the trunk: 5 x 11 x 17 cm, reaching 10 cm ahead of the trunk box and 5 cm above it), one hip capsule, one thigh capsule and one calf capsule per leg (capsules instead of the URDF's thin link boxes: one
 smooth support function, the cheapest convex shape after the sphere for the terrain's per-prism GJK) and one foot
 sphere per leg (URDF radius 2 cm) in its own ``*_foot`` body, so that foot forces (contact state) and thigh/calf
 forces (collision penalty) are separate per-body contact forces, as in IsaacGym. The robot does not collide with
@@ -81,7 +82,7 @@ JOINT_LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 # integrators of the robot's physics: explicit Euler (default) or MuJoCo's implicitfast (implicit actuator damping)
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
 DEFAULT_INTEGRATOR = "euler"
-MODEL_VERSION = "go1-2026-11-24-stiff-limits"
+MODEL_VERSION = "go1-2026-11-28-camera-box"
 """Changes whenever the robot's physics changes, so that flat pre-training checkpoints of an older model are not
 reused (it is part of the pre-training stage key, through :func:`model_version`)."""
 # joint position limits of the original's URDF (go1_with_camera.urdf; IsaacGym enforces them), rad: Menagerie's are
@@ -106,6 +107,10 @@ DEFAULT_TERRAIN_COLLISION = "all"
 
 # URDF-like collision shapes (link frames of the Menagerie model, which has the URDF's kinematics)
 TRUNK_HALF_SIZE = (0.1881, 0.04675, 0.057)  # URDF trunk box 0.3762 x 0.0935 x 0.114
+# URDF imu_link collision box ("front face camera module", 0.05 x 0.11 x 0.17) at imu_link + (0.28, 0.06659, 0.0325),
+# imu_link at trunk + URDF_IMU_POS: in the trunk frame centred at (0.26408, 0, 0.02633)
+CAMERA_BOX_HALF_SIZE = (0.025, 0.055, 0.085)
+CAMERA_BOX_POS = (0.26408, 0.0, 0.02633)
 HIP_RADIUS, HIP_HALF_LENGTH, HIP_OFFSET = 0.046, 0.02, 0.045  # URDF hip cylinder r 0.046, length 0.04, y +-0.045
 THIGH_RADIUS, THIGH_FROMTO = 0.015, (0.0, 0.0, -0.015, 0.0, 0.0, -0.198)  # URDF box 0.213 x 0.0245 x 0.034
 CALF_RADIUS, CALF_FROMTO = 0.008, (0.0, 0.0, -0.008, 0.0, 0.0, -0.19)  # URDF box 0.213 x 0.016 x 0.016
@@ -260,6 +265,8 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = 
                       condim=3, priority=1, friction=[1.0, 0.005, 0.0001], margin=0.0, mass=0.0, **kwargs)
 
     add_collision(spec.body(BASE_BODY), "trunk_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TRUNK_HALF_SIZE))
+    add_collision(spec.body(BASE_BODY), "camera_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(CAMERA_BOX_HALF_SIZE),
+                  pos=list(CAMERA_BOX_POS))
     for leg in LEGS:
         side = 1.0 if leg[1] == "L" else -1.0
         add_collision(spec.body(f"{leg}_hip"), f"{leg}_hip_capsule", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
