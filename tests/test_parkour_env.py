@@ -23,6 +23,7 @@ from mtbench.envs.parkour.observation import GROUPS, OBS_DIM, SLICES, STATE_DIM
 from mtbench.envs.parkour.rewards import (REWARD_SCALES, collision, compute_reward, energy_cost,
                                           tracking_goal_vel, tracking_yaw)
 from mtbench.envs.parkour.terrains import TERRAIN_NAMES
+from mtbench.sim import FATAL_OVERFLOW, HFIELD_OVERFLOW
 from parkour_synthetic import SyntheticConfig, synthetic_terrain
 
 FLAT = TERRAIN_NAMES.index("flat")
@@ -353,6 +354,29 @@ def test_failed_physics_worlds_are_reset_and_counted() -> None:
         dones += int(nxt["done"].sum())
     assert small.pop_episode_stats()["unhealthy"].sum() == dones >= 2
     assert torch.isfinite(td["observation"]).all()
+
+
+def test_trunk_on_too_many_heightfield_prisms_is_counted_not_reset() -> None:
+    """A robot on its side pressed into the rough ground touches more than 50 heightfield prisms with its trunk
+    box (MuJoCo Warp's per-pair limit, an ``HFIELD`` overflow). MuJoCo Warp keeps the contacts of the first 50, so
+    the episode goes on as the original's would (a failed-physics reset, bootstrapped as a time-out, would hide the
+    crash from the learner): the step is counted in ``contact_overflow``, the world is not reset, and the robot
+    rests on the ground instead of sinking through it."""
+    env = _env(columns=("flat",), num_rows=1, n=4)
+    assert env.sim.fatal_overflow & HFIELD_OVERFLOW == 0 and env.sim.fatal_overflow & FATAL_OVERFLOW
+    td = env.reset()
+    pos = env.base_pos.clone()
+    pos[:, 2] = 0.03
+    roll = 1.4  # on its side (the fall rule needs |roll| > 2.5)
+    _teleport(env, pos, torch.tensor([math.cos(roll / 2), math.sin(roll / 2), 0.0, 0.0]))
+    nxt, td = _step(env, td)
+    assert not nxt["done"].any() and torch.isfinite(nxt["reward"]).all()
+    stats = env.pop_episode_stats()
+    assert stats["contact_overflow"][FLAT] == 4 and stats["unhealthy"].sum() == 0
+    for _ in range(20):
+        nxt, td = _step(env, td)
+        assert not nxt["truncated"].any()
+    assert torch.isfinite(env.sim.qpos).all() and bool((env.base_pos[:, 2] > 0.02).all())
 
 
 def test_first_episodes_start_at_random_progress_and_are_not_counted() -> None:

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import mujoco
+import mujoco_warp as mjw
 import numpy as np
 import pytest
 import torch
 
 from mtbench.envs.metaworld.models import compiled_task
-from mtbench.sim import WarpSim
+from mtbench.sim import FATAL_OVERFLOW, WarpSim
 
 
 @pytest.fixture(scope="module")
@@ -85,6 +86,27 @@ def test_unhealthy_flags_nan_and_runaway_worlds(reach_model: mujoco.MjModel) -> 
     assert sim.unhealthy().tolist() == [False, True, True]
     sim.reset(torch.tensor([False, True, True]))
     assert not sim.unhealthy().any()
+
+
+def test_an_overflow_outside_fatal_overflow_is_counted_not_unhealthy() -> None:
+    """A ball dropped on a plane with a constraint buffer too small for its contact: the ``NEFC`` overflow makes
+    the world unhealthy by default; declared not fatal (``fatal_overflow``) it does not, and :meth:`overflowed`
+    reports it (and clears it when asked)."""
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1, 1, 0.1])
+    ball = spec.worldbody.add_body(pos=[0, 0, 0.1])
+    ball.add_freejoint()
+    ball.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.05, 0, 0], mass=1.0)
+    m = spec.compile()
+    nefc = int(mjw.OverflowType.NEFC)
+    for fatal, expect in ((FATAL_OVERFLOW, True), (FATAL_OVERFLOW & ~nefc, False)):
+        sim = WarpSim(m, nworld=2, device="cpu", njmax=1, fatal_overflow=fatal)  # a contact needs 4 rows
+        for _ in range(100):  # 0.2 s: the ball reaches the plane after ~0.1 s
+            sim.step()
+        assert sim.unhealthy().tolist() == [expect, expect]
+        assert sim.overflowed(nefc).tolist() == [True, True]
+        assert sim.overflowed(nefc, clear=True).all() and not sim.overflowed(nefc).any()
+        assert not sim.unhealthy().any()
 
 
 def test_bad_arguments_are_rejected(reach_model: mujoco.MjModel) -> None:

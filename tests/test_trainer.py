@@ -13,6 +13,7 @@ from typing import Any
 
 import pytest
 import torch
+from tensordict import TensorDict
 
 from cpu_runs import assert_same_metrics, compose_config
 from envs_for_tests import SyntheticMTEnv
@@ -255,6 +256,37 @@ def test_resume_refuses_another_reward_version_and_logs_it(tmp_path: Path) -> No
     old = save_checkpoint(tmp_path / "old_v2.pt", state)
     with pytest.raises(ValueError, match="reward_revision: checkpoint='v2-2026-11-25' current='v2-2026-11-28'"):
         build_trainer(_cfg(tmp_path / "v2", f"resume={old}"), env=v2)
+
+
+class OverflowingEnv(SyntheticMTEnv):
+    """Reports one non-fatal contact overflow per task per iteration (as ``ParkourEnv``'s ``contact_overflow``)."""
+
+    def pop_episode_stats(self) -> TensorDict:
+        stats = super().pop_episode_stats()
+        stats["contact_overflow"] = torch.ones(self.num_tasks, device=self.device)
+        return stats
+
+
+def test_contact_overflow_total_is_logged_and_survives_resume(tmp_path: Path) -> None:
+    logger = RecordingLogger()
+    env = OverflowingEnv([4, 4, 4], max_episode_steps=6, seed=0)
+    trainer = build_trainer(_cfg(tmp_path, "max_iterations=2"), env=env, logger=logger)
+    trainer.train()
+    totals = [m["env/contact_overflow_steps_total"] for m, _ in logger.metrics]
+    assert totals == [3.0, 6.0]
+    final = tmp_path / "ckpt" / "final.pt"
+    assert load_checkpoint(final)["counters"]["contact_overflows"] == 6.0
+    resumed = build_trainer(_cfg(tmp_path, "max_iterations=3", f"resume={final}"),
+                            env=OverflowingEnv([4, 4, 4], max_episode_steps=6, seed=0), logger=RecordingLogger())
+    assert resumed.contact_overflows == 6.0
+    resumed.train()
+    assert resumed.contact_overflows == 9.0
+    # a checkpoint written before the counter existed resumes from 0
+    state = load_checkpoint(final)
+    del state["counters"]["contact_overflows"]
+    old = save_checkpoint(tmp_path / "old.pt", state)
+    assert build_trainer(_cfg(tmp_path, "max_iterations=3", f"resume={old}"),
+                         env=OverflowingEnv([4, 4, 4], max_episode_steps=6, seed=0)).contact_overflows == 0.0
 
 
 def test_corrupted_checkpoint_is_refused_naming_the_file(tmp_path: Path) -> None:

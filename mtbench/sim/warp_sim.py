@@ -34,6 +34,11 @@ FATAL_OVERFLOW = int(
     & ~mjw.OverflowType.CONTACT_MATCH
     & ~mjw.OverflowType.TACTILE
 )
+# A geom touching more than mujoco.mjMAXCONPAIR (50) heightfield prisms: MuJoCo Warp stops examining prisms there and
+# still writes the pair's contacts (the deepest and the most spread-out ones among the prisms it examined), so the
+# world's physics goes on with a partial contact set instead of going wrong. A scene can declare it not fatal
+# (``WarpSim(fatal_overflow=FATAL_OVERFLOW & ~HFIELD_OVERFLOW)``) and count it with :meth:`WarpSim.overflowed`.
+HFIELD_OVERFLOW = int(mjw.OverflowType.HFIELD)
 
 # Box-box narrowphase choices (see ``WarpSim``).
 BOX_BOX_COLLIDERS = ("primitive", "gjk")
@@ -103,6 +108,8 @@ class WarpSim:
             ``"gjk"``: MuJoCo Warp's default general convex collider (GJK/EPA, up to 4 contacts).
         contact_forces: after the substeps of every :meth:`step`, also compute the net contact force on every body
             (``mjw.rne_postconstraint``), read through :attr:`body_contact_force`.
+        fatal_overflow: the ``mjw.OverflowType`` bits that make a world unhealthy (:meth:`unhealthy`); default
+            ``FATAL_OVERFLOW`` (every dropped contact or constraint).
     """
 
     def __init__(
@@ -120,6 +127,7 @@ class WarpSim:
         warn_overflow: bool = False,
         box_box_collider: str = "primitive",
         contact_forces: bool = False,
+        fatal_overflow: int = FATAL_OVERFLOW,
     ) -> None:
         if box_box_collider not in BOX_BOX_COLLIDERS:
             raise ValueError(f"unknown box_box_collider {box_box_collider!r}; valid choices: "
@@ -138,6 +146,7 @@ class WarpSim:
         self.use_graph = use_graph
         self.batched_fields = tuple(batched_fields)
         self.contact_forces = bool(contact_forces)
+        self.fatal_overflow = int(fatal_overflow)
         self._has_key = mjm.nkey > 0
         if self._has_key and not 0 <= reset_key < mjm.nkey:
             raise ValueError(f"reset_key {reset_key} out of range for a model with {mjm.nkey} keyframes")
@@ -150,7 +159,7 @@ class WarpSim:
             self.model = mjw.put_model(mjm, batch_sizes=batch)
             # no per-occurrence prints from inside the step: affected worlds are reported by unhealthy() (the
             # env resets and counts them); warn_overflow=True prints MuJoCo Warp's messages for fatal overflows
-            self.model.opt.warn_overflow = FATAL_OVERFLOW if warn_overflow else 0
+            self.model.opt.warn_overflow = self.fatal_overflow if warn_overflow else 0
             if box_box_collider == "primitive":  # MuJoCo Warp reads this flag when it builds the collision table
                 self.model.opt.disableflags |= int(mjw.DisableBit.NATIVECCD)
             self.data = mjw.put_data(mjm, data0, nworld=nworld, nconmax=nconmax, njmax=njmax)
@@ -392,8 +401,17 @@ class WarpSim:
         """Bool ``[nworld]``: non-finite state, runaway velocities, or contact/constraint buffer overflow."""
         bad = ~torch.isfinite(self.qpos).all(-1) | ~torch.isfinite(self.qvel).all(-1)
         bad |= self.qvel.abs().amax(-1) > max_abs_qvel
-        bad |= (self._overflow & FATAL_OVERFLOW) != 0
+        bad |= (self._overflow & self.fatal_overflow) != 0
         return bad
+
+    def overflowed(self, kinds: int, clear: bool = False) -> torch.Tensor:
+        """Bool ``[nworld]``: the world had an overflow of one of the ``mjw.OverflowType`` bits ``kinds`` since its
+        last reset (or since these bits were last cleared: ``clear=True`` clears them after reading, so that a
+        non-fatal overflow is counted per step; e.g. ``HFIELD_OVERFLOW`` where it is not fatal)."""
+        hit = (self._overflow & int(kinds)) != 0
+        if clear:
+            self._overflow.bitwise_and_(~int(kinds))
+        return hit
 
     def _on_own_stream(self):
         if self.stream is None:

@@ -127,6 +127,7 @@ class TrainingLoop:
         self.updates = 0  # optimizer updates attempted (NonFiniteGuard counts the skipped ones)
         self.unhealthy_resets = 0.0  # env worlds reset after a NaN / runaway state / buffer overflow
         self.nonfinite_actions = 0.0  # env steps whose action had a NaN/inf component
+        self.contact_overflows = 0.0  # env steps with a non-fatal contact overflow (Parkour: trunk on > 50 prisms)
         self._stop: StopRequest | None = None
 
     # ------------------------------------------------------------------ hooks
@@ -168,6 +169,7 @@ class TrainingLoop:
         runaway state, actions with a non-finite component) when the env reports them."""
         unhealthy = stats.get("unhealthy", None)  # optional: envs other than mtbench's may not report them
         nonfinite = stats.get("nonfinite_actions", None)
+        overflow = stats.get("contact_overflow", None)  # Parkour only
         self.window.push(stats)
         totals: dict[str, float] = {}
         if unhealthy is not None:
@@ -176,6 +178,9 @@ class TrainingLoop:
         if nonfinite is not None:  # policy actions with a NaN/inf component (replaced by 0 by the env)
             self.nonfinite_actions += float(nonfinite.sum())
             totals["env/nonfinite_actions_total"] = self.nonfinite_actions
+        if overflow is not None:
+            self.contact_overflows += float(overflow.sum())
+            totals["env/contact_overflow_steps_total"] = self.contact_overflows
         return totals
 
     @staticmethod
@@ -237,6 +242,7 @@ class TrainingLoop:
             "updates": self.updates,
             "unhealthy_resets": self.unhealthy_resets,
             "nonfinite_actions": self.nonfinite_actions,
+            "contact_overflows": self.contact_overflows,
         }
 
     def _extra_state(self) -> dict[str, Any]:
@@ -308,6 +314,7 @@ class TrainingLoop:
         self.iteration, self.frames, self.updates = int(c["iteration"]), int(c["frames"]), int(c["updates"])
         self.unhealthy_resets = float(c["unhealthy_resets"])
         self.nonfinite_actions = float(c["nonfinite_actions"])
+        self.contact_overflows = float(c.get("contact_overflows", 0.0))  # not in checkpoints before 2026-11-28
         self.loss.load_state_dict(state["loss"])
         if state.get("update_module") is not None and self.update_module is not self.loss:
             self.update_module.load_state_dict(state["update_module"])

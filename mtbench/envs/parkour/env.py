@@ -13,7 +13,10 @@ synchronisation (on the GPU as CUDA graphs replayed between the physics graphs, 
 Deliberate differences from the original (see ``docs/parkour.md``): the first observation of an episode is computed
 from the new state (the original keeps some pre-reset values and refreshes yaw/scandots only every 5th global step);
 no extra physics step is taken when worlds reset; episodes time out after exactly ``episode_length`` steps; worlds
-whose physics failed (non-finite state, buffer overflow) are reset and counted as ``unhealthy``.
+whose physics failed (non-finite state, a dropped contact or constraint) are reset and counted as ``unhealthy``. A
+robot geom touching more than 50 heightfield prisms (the trunk lying on the ground) is not such a failure: MuJoCo
+Warp keeps the contacts of the first 50 and the episode goes on, as the original's would; those steps are counted
+(``contact_overflow``).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
-from ...sim import WarpSim, launch_all, warp_device
+from ...sim import FATAL_OVERFLOW, HFIELD_OVERFLOW, WarpSim, launch_all, warp_device
 from ...utils import GraphedStage
 from ..inputs import checked_action, reset_mask
 from . import curriculum as cl
@@ -53,7 +56,8 @@ GOAL_STEPS = 1  # a goal is reached after more than this many steps within GOAL_
 FOOT_CONTACT_FORCE = 2.0  # N
 RESET_JOINT_NOISE = (0.0, 0.9)  # rad added to every default joint angle at reset
 MAX_ROLL, MAX_PITCH, MIN_BASE_Z = 2.5, 1.5, -0.25
-STAT_ROWS = ("episodes", "success", "return", "length", "unhealthy", "terrain_level", "nonfinite_actions")
+STAT_ROWS = ("episodes", "success", "return", "length", "unhealthy", "terrain_level", "nonfinite_actions",
+             "contact_overflow")
 
 
 class ParkourEnv(EnvBase):
@@ -186,8 +190,10 @@ class ParkourEnv(EnvBase):
         nconmax = 4 * pairs if nconmax is None else nconmax  # MuJoCo Warp makes <= 4 contacts per heightfield pair
         njmax = 3 * 4 * pairs + robot.NUM_JOINTS if njmax is None else njmax  # 3 rows per contact + joint limits
         batched = domain_rand.BATCHED_FIELDS + (("geom_dataid",) if terrain_representation == "tiles" else ())
+        # a geom on more than 50 heightfield prisms keeps a partial contact set: not a failed physics state
         self.sim = WarpSim(mjm, n, dev, substeps=robot.DECIMATION, nconmax=nconmax, njmax=njmax,
-                           batched_fields=batched, use_graph=use_graph, contact_forces=True)
+                           batched_fields=batched, use_graph=use_graph, contact_forces=True,
+                           fatal_overflow=FATAL_OVERFLOW & ~HFIELD_OVERFLOW)
         self.domain = domain_rand.sample(n, self._generator, dev, enabled=domain_randomization)
         domain_rand.apply(self.sim, mjm, self.domain)
 
@@ -424,6 +430,7 @@ class ParkourEnv(EnvBase):
         self.ground.copy_(torch.where(refresh[:, None], self._scan(), self.ground))
 
         unhealthy = self.sim.unhealthy()
+        contact_overflow = self.sim.overflowed(HFIELD_OVERFLOW, clear=True)
         fell = (self.roll.abs() > MAX_ROLL) | (self.pitch.abs() > MAX_PITCH) | (self.base_pos[:, 2] < MIN_BASE_Z)
         timeout = (self.progress >= self.max_episode_steps) | (self.cur_goal_idx >= NUM_GOALS)
         terminated = fell & ~unhealthy
@@ -434,7 +441,7 @@ class ParkourEnv(EnvBase):
         for name, value in terms.items():
             self.reward_terms[name].copy_(value)
         self._ep_return.add_(reward)
-        self._accumulate_stats(done, unhealthy)
+        self._accumulate_stats(done, unhealthy, contact_overflow)
         if self.curriculum:
             new = cl.update_levels(self.level, self.cur_goal_idx, NUM_GOALS, self.num_rows,
                                    torch.rand(self.level.shape, generator=self._generator, device=self.device),
@@ -461,12 +468,12 @@ class ParkourEnv(EnvBase):
             vel = self._uniform((self.batch_size[0], 2), -PUSH_VELOCITY, PUSH_VELOCITY)
             self.sim.qvel[:, 0:2] = torch.where(push[:, None], vel, self.sim.qvel[:, 0:2])
 
-    def _accumulate_stats(self, done: torch.Tensor, unhealthy: torch.Tensor) -> None:
+    def _accumulate_stats(self, done: torch.Tensor, unhealthy: torch.Tensor, contact_overflow: torch.Tensor) -> None:
         counted = done & self._ep_counted
         c = counted.float()
         progress = self.cur_goal_idx.clamp(max=NUM_GOALS).float() / NUM_GOALS
         rows = torch.stack([c, c * progress, c * self._ep_return, c * self.progress.float(), unhealthy.float(),
-                            c * self.level.float(), self._nonfinite_action.float()])
+                            c * self.level.float(), self._nonfinite_action.float(), contact_overflow.float()])
         self._stats.index_add_(1, self.task_id, rows)
         level = torch.where(counted, self.level, torch.full_like(self.level, -1))
         self._max_level.scatter_reduce_(0, self.task_id, level, reduce="amax")
@@ -555,7 +562,9 @@ class ParkourEnv(EnvBase):
         ``episodes``, ``success`` (summed progress = goals reached / 8, so ``success / episodes`` is the mean
         progress), ``return``, ``length``, ``unhealthy`` (worlds reset after a failed physics state),
         ``terrain_level`` (summed rows of the finished episodes), ``max_terrain_level`` (highest row of a finished
-        episode, -1 if none) and ``nonfinite_actions`` (steps whose action had a NaN/inf component, replaced by 0)."""
+        episode, -1 if none), ``nonfinite_actions`` (steps whose action had a NaN/inf component, replaced by 0) and
+        ``contact_overflow`` (steps in which a robot geom touched more than 50 heightfield prisms and kept the contacts
+        of the first 50: the trunk lying on the ground; not a failure)."""
         stats = self._stats.clone()
         max_level = self._max_level.clone()
         self._stats.zero_()
