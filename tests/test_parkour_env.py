@@ -150,7 +150,9 @@ def test_observation_layout_matches_the_state_it_encodes() -> None:
     # the box step (0.2 m, from x = 3 m) is in front of world 1's scan (up to x = 1 + 1.2 m): not yet; a bigger
     # scan of the same lookup would see it, the flat world sees flat ground
     assert np.allclose(o["scandots"][0].numpy(), o["scandots"][0, 0].item(), atol=1e-6)
-    lin = torch.tensor(rot.inv().apply(qvel[:, 0:3].numpy()))
+    com = env.sim.model_field("body_ipos")[:, env.scene.mjm.body(robot.BASE_BODY).id].double().numpy()
+    v_com = qvel[:, 0:3].numpy() + np.cross(rot.apply(qvel[:, 3:6].numpy()), rot.apply(com))  # trunk's CoM
+    lin = torch.tensor(rot.inv().apply(v_com))
     torch.testing.assert_close(o["base_lin_vel"], lin * 2.0, atol=1e-5, rtol=0)
     d = env.domain
     torch.testing.assert_close(o["added_mass"][:, 0], d.added_mass.double())
@@ -354,6 +356,29 @@ def test_failed_physics_worlds_are_reset_and_counted() -> None:
         dones += int(nxt["done"].sum())
     assert small.pop_episode_stats()["unhealthy"].sum() == dones >= 2
     assert torch.isfinite(td["observation"]).all()
+
+
+def test_base_velocity_is_the_trunk_centre_of_mass_velocity() -> None:
+    """As PhysX reports a root body's velocity (the original's ``root_states[:, 7:10]``, used by the goal-velocity
+    reward and the privileged observation), the base velocity is the trunk's centre of mass's: the free joint's
+    velocity of the frame origin + (R omega_body) x (R com), with each world's randomized centre of mass."""
+    env = _env(columns=("flat",), num_rows=1, n=3, seed=5)
+    env.reset()
+    trunk = env.scene.mjm.body(robot.BASE_BODY).id
+    com = env.sim.model_field("body_ipos")[:, trunk].double().numpy()
+    assert np.abs(com - env.scene.mjm.body_ipos[trunk]).max() > 0.05  # randomized offsets (+-0.2 m)
+    rot = Rotation.from_euler("ZYX", [[0.3, 0.2, -0.1], [-1.0, 0.0, 0.4], [2.0, -0.3, 0.0]])
+    quat = rot.as_quat()[:, [3, 0, 1, 2]]
+    v0, omega_b = np.array([[0.5, 0.1, 0.0], [0.0, -0.2, 0.3], [0.0, 0.0, 0.0]]), np.array(
+        [[0.0, 0.0, 2.0], [1.0, -3.0, 0.5], [4.0, 0.0, 0.0]])
+    env.sim.qpos[:, 3:7] = torch.tensor(quat, dtype=torch.float32)
+    env.sim.qvel[:, 0:3] = torch.tensor(v0, dtype=torch.float32)
+    env.sim.qvel[:, 3:6] = torch.tensor(omega_b, dtype=torch.float32)
+    env._read_state()
+    expected = v0 + np.cross(rot.apply(omega_b), rot.apply(com))
+    np.testing.assert_allclose(env.base_lin_vel_world.double().numpy(), expected, atol=1e-5)
+    np.testing.assert_allclose(env.base_lin_vel.double().numpy(), rot.inv().apply(expected), atol=1e-5)
+    assert np.abs(expected - v0).max() > 0.1  # not the frame origin's
 
 
 def test_trunk_on_too_many_heightfield_prisms_is_counted_not_reset() -> None:

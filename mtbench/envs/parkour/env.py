@@ -38,7 +38,7 @@ from . import curriculum as cl
 from . import domain_rand, robot
 from .height_scan import HeightGrid, scan_points
 from .observation import NUM_TASK_SLOTS, OBS_DIM, STATE_DIM, assemble, scandots
-from .rotations import euler_from_quat, quat_rotate_inverse
+from .rotations import euler_from_quat, quat_rotate, quat_rotate_inverse
 from .rewards import REWARD_SCALES, check_scales, compute_reward
 from .scene import build_scene
 from .terrains import NUM_GOALS, TERRAIN_NAMES
@@ -196,6 +196,8 @@ class ParkourEnv(EnvBase):
                            fatal_overflow=FATAL_OVERFLOW & ~HFIELD_OVERFLOW)
         self.domain = domain_rand.sample(n, self._generator, dev, enabled=domain_randomization)
         domain_rand.apply(self.sim, mjm, self.domain)
+        self._body_ipos = self.sim.model_field("body_ipos")  # [N, nbody, 3], the trunk's per world
+        self._trunk_body = mujoco.mj_name2id(mjm, mujoco.mjtObj.mjOBJ_BODY, robot.BASE_BODY)
 
         # terrain on the device
         self.height_grid = HeightGrid(torch.as_tensor(terrain.heights, device=dev), terrain.config.horizontal_scale,
@@ -290,9 +292,14 @@ class ParkourEnv(EnvBase):
         qpos, qvel = self.sim.qpos, self.sim.qvel
         self.base_pos.copy_(qpos[:, 0:3] + self.world_offset)
         self.base_quat.copy_(qpos[:, 3:7])
-        self.base_lin_vel_world.copy_(qvel[:, 0:3])  # free joint: world-frame linear velocity
-        self.base_lin_vel.copy_(quat_rotate_inverse(self.base_quat, self.base_lin_vel_world))
         self.base_ang_vel.copy_(qvel[:, 3:6])  # free joint: body-frame angular velocity
+        # the trunk's centre-of-mass velocity, as PhysX reports a root body's (the original's root_states[:, 7:10]):
+        # the free joint's world-frame velocity of the trunk frame origin + omega x (R com), with the per-world
+        # (domain-randomized) centre of mass
+        com = quat_rotate(self.base_quat, self._body_ipos[:, self._trunk_body])
+        omega = quat_rotate(self.base_quat, self.base_ang_vel)
+        self.base_lin_vel_world.copy_(qvel[:, 0:3] + torch.cross(omega, com, dim=-1))
+        self.base_lin_vel.copy_(quat_rotate_inverse(self.base_quat, self.base_lin_vel_world))
         roll, pitch, yaw = euler_from_quat(self.base_quat)
         self.roll.copy_(roll)
         self.pitch.copy_(pitch)

@@ -17,7 +17,7 @@ Each entry is ``(name, size, scale)``; :data:`SLICES` maps a name to its columns
 | last_action | 12 | the policy's previous action as given (before clipping) |
 | foot_contact | 4 | filtered foot contact (force > 2 N now or at the previous step) - 0.5 |
 | scandots | 132 | clip(base_z - 0.3 - h, -1, 1) at the scan points, refreshed every 5 steps |
-| base_lin_vel | 3 | base linear velocity (base frame) x 2.0 |
+| base_lin_vel | 3 | the trunk's centre-of-mass velocity (base frame) x 2.0 |
 | added_mass | 1 | mass added to the trunk (kg) |
 | com_offset | 3 | trunk centre-of-mass offset (m) |
 | friction | 1 | robot friction coefficient |

@@ -4,9 +4,10 @@ Each term is a plain function ``f(env) -> Tensor[N]`` of the env's named state; 
 by ``scale * dt`` (dt = 0.02 s, the policy step) and, with ``only_positive``, clips the total at 0.
 
 State read from ``env`` (all ``[N, ...]`` tensors, world frame unless noted):
-``target_pos_rel`` (current goal xy - base xy), ``base_lin_vel_world``, ``command`` (forward speed), ``target_yaw``,
-``yaw``, ``joint_torque``, ``joint_vel``, ``body_contact_force`` (``[N, nbody, 3]``) and ``penalized_bodies`` (body ids
-of the thighs and calves); ``base_quat`` (w, x, y, z) for ``orientation``.
+``target_pos_rel`` (current goal xy - base xy), ``base_lin_vel_world`` (the trunk's centre-of-mass velocity),
+``command`` (forward speed), ``target_yaw``, ``yaw``, ``joint_torque``, ``joint_vel``, ``body_contact_force``
+(``[N, nbody, 3]``) and ``penalized_bodies`` (body ids of the thighs and calves); ``base_quat`` (w, x, y, z) for
+``orientation``.
 
 ``orientation`` is not one of MTBench's Go1 terms (not in :data:`REWARD_SCALES`, so it is off): it is legged_gym's
 ``_reward_orientation``, for ablations of the trunk's posture (``reward_scales``).

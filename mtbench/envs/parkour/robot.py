@@ -82,9 +82,10 @@ JOINT_LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 # integrators of the robot's physics: explicit Euler (default) or MuJoCo's implicitfast (implicit actuator damping)
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
 DEFAULT_INTEGRATOR = "euler"
-MODEL_VERSION = "go1-2026-11-28-camera-box"
-"""Changes whenever the robot's physics changes, so that flat pre-training checkpoints of an older model are not
-reused (it is part of the pre-training stage key, through :func:`model_version`)."""
+MODEL_VERSION = "go1-2026-11-28-camera-box-com-velocity"
+"""Changes whenever the robot's physics, or what the env measures of it, changes, so that flat pre-training
+checkpoints of an older model are not reused (it is part of the pre-training stage key, through
+:func:`model_version`). 2026-11-28: the URDF's camera-module box; the base velocity is the trunk's centre of mass's."""
 # joint position limits of the original's URDF (go1_with_camera.urdf; IsaacGym enforces them), rad: Menagerie's are
 # wider (hip +-0.863, thigh -0.686..4.501, calf -2.818..-0.888)
 JOINT_RANGES = {"hip": (-0.802851455917, 0.802851455917), "thigh": (-1.0471975512, 4.18879020479),

@@ -5,6 +5,14 @@ from __future__ import annotations
 import torch
 
 
+def quat_rotate(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    """Rotate vectors ``v`` ``[N, 3]`` given in the frame of unit quaternions ``q`` ``[N, 4]`` (w, x, y, z) into the
+    world frame."""
+    w, u = q[:, :1], q[:, 1:]
+    t = 2.0 * torch.cross(u, v, dim=-1)
+    return v + w * t + torch.cross(u, t, dim=-1)
+
+
 def quat_rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     """Rotate world-frame vectors ``v`` ``[N, 3]`` into the frame of unit quaternions ``q`` ``[N, 4]`` (w, x, y, z)."""
     w, u = q[:, :1], q[:, 1:]
