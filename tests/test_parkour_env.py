@@ -19,7 +19,7 @@ from mtbench.envs.parkour import curriculum as cl
 from mtbench.envs.parkour import robot
 from mtbench.envs.parkour.env import ParkourEnv
 from mtbench.envs.parkour.height_scan import SCAN_X, SCAN_Y
-from mtbench.envs.parkour.observation import GROUPS, OBS_DIM, SLICES, STATE_DIM
+from mtbench.envs.parkour.observation import GROUPS, OBS_DIM, SLICES, STATE_DIM, scandots
 from mtbench.envs.parkour.rewards import (REWARD_SCALES, collision, compute_reward, energy_cost,
                                           tracking_goal_vel, tracking_yaw)
 from mtbench.envs.parkour.terrains import TERRAIN_NAMES
@@ -135,17 +135,10 @@ def test_observation_layout_matches_the_state_it_encodes() -> None:
     feet = torch.linalg.vector_norm(env.body_contact_force[:, env.foot_bodies], dim=-1) > 2.0
     assert torch.all(o["foot_contact"] == torch.where(feet | env.last_contacts, 0.5, -0.5).double())
     assert (o["foot_contact"] == 0.5).sum(-1).min() >= 2  # landed
-    # scandots: the original's lookup, in numpy, from the terrain grid
-    t = env.terrain
-    gx, gy = np.meshgrid(np.array(SCAN_X), np.array(SCAN_Y), indexing="ij")
+    # scandots: the original's lookup, in numpy, from the terrain grid, turned as quat_apply_yaw does
     for w in range(2):
-        c, s = np.cos(yaw[w].item()), np.sin(yaw[w].item())
-        px = c * gx.ravel() - s * gy.ravel() + pos[w, 0].item()
-        py = s * gx.ravel() + c * gy.ravel() + pos[w, 1].item()
-        a = np.clip(np.floor((px + t.border) / 0.05).astype(int), 0, t.heights.shape[0] - 2)
-        b = np.clip(np.floor((py + t.border) / 0.05).astype(int), 0, t.heights.shape[1] - 2)
-        h = np.minimum(np.minimum(t.heights[a, b], t.heights[a + 1, b]), t.heights[a, b + 1])
-        expected = np.clip(qpos[w, 2].item() - 0.3 - h, -1, 1)
+        heading = 2.0 * np.arctan2(qpos[w, 6].item(), qpos[w, 3].item())
+        expected = _scan_reference(env, heading, pos[w, :2].numpy(), qpos[w, 2].item())
         np.testing.assert_allclose(o["scandots"][w].numpy(), expected, atol=1e-5)
     # the box step (0.2 m, from x = 3 m) is in front of world 1's scan (up to x = 1 + 1.2 m): not yet; a bigger
     # scan of the same lookup would see it, the flat world sees flat ground
@@ -379,6 +372,38 @@ def test_base_velocity_is_the_trunk_centre_of_mass_velocity() -> None:
     np.testing.assert_allclose(env.base_lin_vel_world.double().numpy(), expected, atol=1e-5)
     np.testing.assert_allclose(env.base_lin_vel.double().numpy(), rot.inv().apply(expected), atol=1e-5)
     assert np.abs(expected - v0).max() > 0.1  # not the frame origin's
+
+
+def _scan_reference(env: ParkourEnv, heading: float, xy: np.ndarray, base_z: float) -> np.ndarray:
+    """The original's scandots in numpy: the 12 x 11 points turned by ``heading``, min of 3 grid samples."""
+    t = env.terrain
+    gx, gy = np.meshgrid(np.array(SCAN_X), np.array(SCAN_Y), indexing="ij")
+    c, s = np.cos(heading), np.sin(heading)
+    px = c * gx.ravel() - s * gy.ravel() + xy[0]
+    py = s * gx.ravel() + c * gy.ravel() + xy[1]
+    a = np.clip(np.floor((px + t.border) / 0.05).astype(int), 0, t.heights.shape[0] - 2)
+    b = np.clip(np.floor((py + t.border) / 0.05).astype(int), 0, t.heights.shape[1] - 2)
+    h = np.minimum(np.minimum(t.heights[a, b], t.heights[a + 1, b]), t.heights[a, b + 1])
+    return np.clip(base_z - 0.3 - h, -1, 1)
+
+
+def test_scan_points_turn_with_the_originals_quat_apply_yaw() -> None:
+    """The original turns the scan points by ``quat_apply_yaw`` (the base quaternion with its x, y parts zeroed: a
+    turn about z by 2 atan2(q_z, q_w)), not by the Euler yaw; the two differ for a tilted trunk, and on a terrain
+    with edges the scandots differ with them."""
+    env = _env(columns=("box_jump_even",), num_rows=1, n=1)
+    env.reset()
+    rot = Rotation.from_euler("ZYX", [0.6, 0.5, 0.6])  # yaw, pitch, roll: a strongly tilted trunk
+    xyzw = rot.as_quat()
+    heading = 2.0 * math.atan2(xyzw[2], xyzw[3])
+    assert abs(heading - 0.6) > 0.1  # not the Euler yaw
+    xy = np.array([2.9, 2.0])  # near the end of the first platform
+    _teleport(env, torch.tensor([[xy[0], xy[1], 0.35]]), torch.tensor(xyzw[[3, 0, 1, 2]], dtype=torch.float32))
+    env._read_state()
+    base_z = float(env.base_pos[0, 2])
+    scan = scandots(env.base_pos[:, 2], env._scan())[0].numpy()
+    np.testing.assert_allclose(scan, _scan_reference(env, heading, xy, base_z), atol=1e-5)
+    assert np.abs(scan - _scan_reference(env, 0.6, xy, base_z)).max() > 0.1
 
 
 def test_trunk_on_too_many_heightfield_prisms_is_counted_not_reset() -> None:

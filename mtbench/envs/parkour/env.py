@@ -345,7 +345,10 @@ class ParkourEnv(EnvBase):
         self.reach_timer.masked_fill_(advance, 0)
 
     def _scan(self) -> torch.Tensor:
-        return self.height_grid.scan(self.base_pos[:, :2], self.yaw, self._scan_points)
+        # the original's quat_apply_yaw: the base quaternion with its x, y parts zeroed, i.e. a turn about z by
+        # 2 atan2(q_z, q_w) (the Euler yaw's equal only for an upright trunk)
+        heading = 2.0 * torch.atan2(self.base_quat[:, 3], self.base_quat[:, 0])
+        return self.height_grid.scan(self.base_pos[:, :2], heading, self._scan_points)
 
     def _sample_commands(self, mask: torch.Tensor) -> None:
         cmd = self._uniform(self.command.shape, *COMMAND_RANGE)

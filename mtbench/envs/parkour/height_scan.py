@@ -2,8 +2,10 @@
 
 MTBench (``legged_base.py`` ``_get_heights``) samples the terrain's height grid (not ray casts): each point, given in
 the base frame on ``x in SCAN_X``, ``y in SCAN_Y`` (x-major order: point ``k`` is
-``(SCAN_X[k // 11], SCAN_Y[k % 11])``), is rotated by the base yaw only and moved to the base position; the grid index is ``floor((p + border) / hs)``
-(clipped to the grid) and the height is the minimum of the samples at ``(a, b)``, ``(a + 1, b)`` and ``(a, b + 1)``.
+``(SCAN_X[k // 11], SCAN_Y[k % 11])``), is turned about z by a heading (the env passes the original's
+``quat_apply_yaw`` heading, 2 atan2(q_z, q_w)) and moved to the base position; the grid index is
+``floor((p + border) / hs)`` (clipped to the grid) and the height is the minimum of the samples at ``(a, b)``,
+``(a + 1, b)`` and ``(a, b + 1)``.
 """
 
 from __future__ import annotations
