@@ -85,7 +85,8 @@ DEFAULT_INTEGRATOR = "euler"
 MODEL_VERSION = "go1-2026-11-28-camera-box-com-velocity"
 """Changes whenever the robot's physics, or what the env measures of it, changes, so that flat pre-training
 checkpoints of an older model are not reused (it is part of the pre-training stage key, through
-:func:`model_version`). 2026-11-28: the URDF's camera-module box; the base velocity is the trunk's centre of mass's."""
+:func:`model_version`). 2026-11-28: the URDF's camera-module box; the base velocity is the trunk's centre of mass's;
+the scan points turn by the original's ``quat_apply_yaw`` heading."""
 # joint position limits of the original's URDF (go1_with_camera.urdf; IsaacGym enforces them), rad: Menagerie's are
 # wider (hip +-0.863, thigh -0.686..4.501, calf -2.818..-0.888)
 JOINT_RANGES = {"hip": (-0.802851455917, 0.802851455917), "thigh": (-1.0471975512, 4.18879020479),
