@@ -38,6 +38,7 @@ __all__ = [
     "gripper_caging_reward",
     "polyline_distance",
     "progress",
+    "reach_progress_reward",
     "hamacher_product",
     "hamacher_product_checked",
     "rect_prism_tolerance",
@@ -446,6 +447,23 @@ def progress(dist: Tensor, dist0: Tensor, radius: float) -> Tensor:
     ``dist0``, 1 within ``radius``. Unlike a long-tail ``tolerance`` it pays every centimetre of the way the same."""
     span = (dist0 - radius).clamp_min(1e-3)
     return ((dist0 - dist) / span).clamp(0.0, 1.0)
+
+
+def reach_progress_reward(reach_dist: Tensor, reach_dist0: Tensor, reach_radius: float, dist: Tensor, dist0: Tensor,
+                          radius: float) -> Tensor:
+    """The v2 reward ``[N]`` (0..8) of a task that reaches a part and then moves it (dial_turn, door_close)::
+
+        reach = tolerance(reach_dist, (0, reach_radius), margin=max(reach_dist0 − reach_radius, 0.05), long_tail)
+        done  = progress(dist, dist0, radius)         # linear in the part's distance to the goal, 1 at success
+        r = 2·max(reach, done) + 6·done
+
+    ``reach_dist``/``reach_dist0``: the TCP's current/initial distance to the part; ``dist``/``dist0``: the part's
+    current/initial distance to the goal. Reaching pays up to 2 on its own and every centimetre towards the goal pays
+    the same; ``max(reach, done)`` keeps the reach term once the part moves, so that leaving it costs nothing."""
+    reach = tolerance(reach_dist, bounds=(0.0, reach_radius), margin=(reach_dist0 - reach_radius).clamp_min(0.05),
+                      sigmoid="long_tail")
+    done = progress(dist, dist0, radius)
+    return 2.0 * torch.maximum(reach, done) + 6.0 * done
 
 
 def polyline_distance(p: Tensor, points: list[Tensor], stage: Tensor) -> Tensor:

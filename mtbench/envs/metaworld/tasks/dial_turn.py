@@ -7,7 +7,7 @@ import math
 import mujoco
 import torch
 
-from ..reward_utils import hamacher_product, mtbench_gripper_openness, progress, tolerance
+from ..reward_utils import hamacher_product, mtbench_gripper_openness, reach_progress_reward, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
 
@@ -64,10 +64,8 @@ def dial_turn_reward_v2(tcp: torch.Tensor, obj: torch.Tensor, goal: torch.Tensor
     """
     at_bar = offset(obj, 0.0, 0.0, V2_REACH_HEIGHT)
     d0 = (init_tcp - offset(obj_start, 0.0, 0.0, V2_REACH_HEIGHT)).norm(dim=-1)
-    reach = tolerance((tcp - at_bar).norm(dim=-1), bounds=(0.0, V2_REACH_RADIUS),
-                      margin=(d0 - V2_REACH_RADIUS).clamp_min(0.05), sigmoid="long_tail")
-    turn = progress((obj - goal).norm(dim=-1), (obj_start - goal).norm(dim=-1), TARGET_RADIUS)
-    return 2.0 * torch.maximum(reach, turn) + 6.0 * turn
+    return reach_progress_reward((tcp - at_bar).norm(dim=-1), d0, V2_REACH_RADIUS,
+                                 (obj - goal).norm(dim=-1), (obj_start - goal).norm(dim=-1), TARGET_RADIUS)
 
 
 def dial_turn_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:

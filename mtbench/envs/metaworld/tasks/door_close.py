@@ -5,7 +5,7 @@ from __future__ import annotations
 import mujoco
 import torch
 
-from ..reward_utils import progress, tolerance
+from ..reward_utils import reach_progress_reward, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
 from ._door import DOOR_BODY, DOOR_JOINT, HANDLE_SITE, SAFE_BODY, edit_door_scene
@@ -49,13 +49,11 @@ def door_close_reward_v2(tcp: torch.Tensor, obj: torch.Tensor, obj_start: torch.
     episode, and one of three MT50-rand runs never found the door (docs/results/mt50_rand_ppo.md). Here reaching the
     handle (0.3 m from the hand's start, on the hand's side of the open door) pays up to 2 on its own, and each
     centimetre that the handle travels towards the goal pays the same; ``max(reach, close)`` keeps the reach term
-    while the door closes, so pushing it shut from anywhere on its face costs nothing. dial_turn's v2 form.
+    while the door closes, so pushing it shut from anywhere on its face costs nothing
+    (:func:`~..reward_utils.reach_progress_reward`, dial_turn's v2 form).
     """
-    d0 = (init_tcp - obj_start).norm(dim=-1)
-    reach = tolerance((tcp - obj).norm(dim=-1), bounds=(0.0, V2_REACH_RADIUS),
-                      margin=(d0 - V2_REACH_RADIUS).clamp_min(0.05), sigmoid="long_tail")
-    close = progress((obj - goal).norm(dim=-1), (obj_start - goal).norm(dim=-1), TARGET_RADIUS)
-    return 2.0 * torch.maximum(reach, close) + 6.0 * close
+    return reach_progress_reward((tcp - obj).norm(dim=-1), (init_tcp - obj_start).norm(dim=-1), V2_REACH_RADIUS,
+                                 (obj - goal).norm(dim=-1), (obj_start - goal).norm(dim=-1), TARGET_RADIUS)
 
 
 def door_close_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
