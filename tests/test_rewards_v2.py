@@ -15,7 +15,7 @@ from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disa
                                           pick_place, pick_place_wall, push_wall, shelf_place)
 
 V2_TASKS = {"basketball", "box_close", "dial_turn", "disassemble", "door_close", "peg_insert_side", "pick_place_wall",
-            "push_wall", "shelf_place"}
+            "push_wall", "shelf_place", "stick_push"}
 GRIP = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
 OPEN = torch.tensor([[0.0, 0.0, 0.0, -1.0]])
 
@@ -297,7 +297,7 @@ def test_grasp_place_tasks_in_the_env() -> None:
     tasks = ["basketball", "box_close", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
              "shelf_place"]
     env = make_env(tasks, num_envs=[2] * len(tasks), device="cpu", seed=0, reward_version="v2")
-    assert env.reward_revision == "v2-2026-11-28b"
+    assert env.reward_revision == "v2-2026-11-28c"
     td = env.reset()
     g = torch.Generator().manual_seed(0)
     for _ in range(3):
@@ -323,3 +323,32 @@ def test_unknown_reward_version_names_the_choices() -> None:
         task_cls.dense_reward(task_cls.__new__(task_cls), "v3")
     with pytest.raises(ValueError, match="reward_version 'v3'.*valid choices.*paper.*v2"):
         task_cls.success_reward_fn(task_cls.__new__(task_cls), "v3")
+
+
+def test_stick_push_v2_is_its_paper_era_reward() -> None:
+    """Since ``v2-2026-11-28c`` stick_push's v2 reward is its paper-era reward evaluated with the original
+    ``tolerance`` (the one MT-PPO learned it with on MT50-rand): along the scripted controllers' paths (grasp, lift,
+    push) the env pays the same per-step rewards in both versions, also with the compiled torch stages (the nested
+    ``mtbench_tolerance`` context inside compiled code), while stick_pull, the same scene without a v2 design, is
+    paid differently (its caging terms follow the correct ``tolerance`` in v2)."""
+    from mtbench.envs import make_env
+    from mtbench.envs.metaworld.policies import scripted_policy
+
+    policies = [scripted_policy("stick_push"), scripted_policy("stick_pull")]
+
+    def rewards(version: str, compile_stages: bool = False) -> torch.Tensor:
+        env = make_env(["stick_push", "stick_pull"], num_envs=[4, 4], device="cpu", seed=3, rand=True,
+                       random_start_progress=False, reward_version=version, compile_stages=compile_stages)
+        td, out_rewards = env.reset(), []
+        for _ in range(100):
+            obs = td["observation"][:, : env.state_dim]
+            td["action"] = torch.cat([p(obs[sl]) for p, sl in zip(policies, env.slices)])
+            out, td = env.step_and_maybe_reset(td)
+            out_rewards.append(out["next", "reward"].reshape(-1).clone())
+        env.close()
+        return torch.stack(out_rewards)
+
+    paper, v2 = rewards("paper"), rewards("v2")
+    assert torch.equal(paper[:, :4], v2[:, :4]) and paper[:, :4].max() > 5.0  # the path reaches the push
+    assert (paper[:, 4:] - v2[:, 4:]).abs().max() > 1e-3
+    torch.testing.assert_close(rewards("v2", compile_stages=True), v2, atol=1e-4, rtol=1e-5)

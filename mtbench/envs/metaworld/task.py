@@ -31,13 +31,14 @@ HAND_HIGH = (0.525, 1.025, 0.7)
 # (``reward_v2``, ``success_reward_v2``): rewards of our design for the tasks that MT-PPO leaves at ~0% with the
 # paper-era rewards (docs/metaworld.md, "reward_version v2"; docs/results/mt50_rand_ppo.md).
 REWARD_VERSIONS: tuple[str, ...] = ("paper", "v2")
-REWARD_REVISIONS: dict[str, str] = {"paper": "paper", "v2": "v2-2026-11-28b"}
+REWARD_REVISIONS: dict[str, str] = {"paper": "paper", "v2": "v2-2026-11-28c"}
 """The definition each reward version has in this code, recorded in logs and checkpoints (a run resumes only into
 the same revision). ``v2`` revisions: ``v2-2026-11-25``, staged reach/grip/lift/carry rewards for the grasp-and-carry
 tasks (the first MT50-rand v2 run); ``v2-2026-11-28``, pick_place's paper-era form with each task's grasp point and
 path (``reward_utils.grasp_place_reward``) for basketball, box_close, disassemble, peg_insert_side,
 pick_place_wall, push_wall and shelf_place (its MT50-rand run); ``v2-2026-11-28b``, the same plus door_close's reach
-and linear closing reward (``tasks/door_close.py``)."""
+and linear closing reward (``tasks/door_close.py``; its MT50-rand run); ``v2-2026-11-28c``, the same plus stick_push
+keeps its paper-era reward exactly, evaluated with the original ``tolerance`` (``tasks/stick_push.py``)."""
 
 Reward = Callable[["TaskState", torch.Tensor], torch.Tensor]
 
