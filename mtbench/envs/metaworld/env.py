@@ -71,8 +71,8 @@ class MetaWorldEnv(EnvBase):
         box_box_collider: ``"primitive"`` (MuJoCo C's box-box routine) or ``"gjk"`` (MuJoCo Warp's default
             GJK/EPA); see :class:`~mtbench.sim.WarpSim`.
         reward_version: ``"paper"`` (the paper-era MTBench rewards with the original's ``tolerance``, default) or
-            ``"v2"`` (Meta-World's correct ``tolerance``, and staged rewards of our design for the tasks that
-            define ``reward_v2``; see ``docs/metaworld.md``).
+            ``"v2"`` (Meta-World's correct ``tolerance``, and rewards of our design for the tasks that define
+            ``reward_v2``; see ``docs/metaworld.md``).
         action_scale: metres of TCP displacement per control step at ``|action| = 1`` (``robot.ACTION_SCALE`` =
             0.01, Meta-World's; MTBench's discrete-action PQN runs use 0.005).
     """
