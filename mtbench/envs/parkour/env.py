@@ -38,7 +38,7 @@ from . import curriculum as cl
 from . import domain_rand, robot
 from .height_scan import HeightGrid, scan_points
 from .observation import NUM_TASK_SLOTS, OBS_DIM, STATE_DIM, assemble, scandots
-from .rotations import euler_from_quat, quat_rotate, quat_rotate_inverse
+from ..rotations import euler_from_quat, quat_rotate, quat_rotate_inverse
 from .rewards import REWARD_SCALES, check_scales, compute_reward
 from .scene import build_scene
 from .terrains import NUM_GOALS, TERRAIN_NAMES

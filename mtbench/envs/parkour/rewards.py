@@ -19,7 +19,7 @@ from typing import Callable, Mapping
 
 import torch
 
-from .rotations import quat_rotate_inverse
+from ..rotations import quat_rotate_inverse
 
 EPS = 1e-5
 COLLISION_FORCE = 0.1  # N: a thigh/calf "collides" above this contact force

@@ -17,9 +17,3 @@ def with_z(xy: torch.Tensor, z: torch.Tensor | float) -> torch.Tensor:
     z_t = torch.full_like(xy[:, 0], z) if isinstance(z, float) else z
     return torch.stack([xy[:, 0], xy[:, 1], z_t], dim=-1)
 
-
-def quat_rotate(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
-    """Rotate vectors ``v`` ``[N, 3]`` by wxyz unit quaternions ``q`` ``[N, 4]``."""
-    w, u = q[:, :1], q[:, 1:]
-    t = 2.0 * torch.linalg.cross(u, v)
-    return v + w * t + torch.linalg.cross(u, t)

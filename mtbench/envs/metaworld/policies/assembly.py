@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import torch
 
+from ...rotations import quat_rotate
 from ._common import action, parse
 from ._grasp import move_lead, grasp_phase
-from ._tools import quat_rotate, with_z
+from ._tools import with_z
 from .disassemble import HANDLE_GRASP
 
 RING_FROM_HANDLE_LOCAL = (0.0, 0.13, 0.0)  # ring centre relative to the handle in the nut's frame

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import torch
 
+from ...rotations import quat_rotate
 from ._common import action, parse
 from ._grasp import grasp_phase, move_lead
-from ._tools import quat_rotate, with_z
+from ._tools import with_z
 
 BAR_ABOVE_TOP = 0.082  # handle bar axis above the observed top_link, in the lid's frame
 BAR_GRASP = dict(above=0.06, xy_tol=0.008, grasp_tol=0.004, hold_tol=0.02,

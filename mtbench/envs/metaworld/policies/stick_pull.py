@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import torch
 
+from ...rotations import quat_rotate
 from ._common import action, parse
 from ._grasp import PUCK_GRASP, grasp_phase, move_lead, shifted
-from ._tools import quat_rotate
 
 STICK_HALF_LENGTH = 0.1
 THERMOS_RADIUS = 0.06

@@ -1,4 +1,4 @@
-"""Quaternion helpers for MuJoCo's ``(w, x, y, z)`` convention (batched torch)."""
+"""Quaternion helpers for MuJoCo's ``(w, x, y, z)`` convention (batched torch), shared by the env families."""
 
 from __future__ import annotations
 
