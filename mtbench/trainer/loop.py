@@ -58,6 +58,16 @@ LEGACY_V2_REVISION = "v2-2026-11-25"
 v2 definition; Meta-World's ``task.REWARD_REVISIONS`` lists them)."""
 
 
+# The env health statistics summed over the run: (episode-stats key, counter attribute, logged metric).
+# ``unhealthy``: worlds reset after a NaN or runaway state; ``nonfinite_actions``: policy actions with a NaN/inf
+# component (replaced by 0 by the env); ``contact_overflow``: steps whose contacts overflowed (Parkour only).
+ENV_HEALTH_TOTALS: tuple[tuple[str, str, str], ...] = (
+    ("unhealthy", "unhealthy_resets", "env/unhealthy_resets_total"),
+    ("nonfinite_actions", "nonfinite_actions", "env/nonfinite_actions_total"),
+    ("contact_overflow", "contact_overflows", "env/contact_overflow_steps_total"),
+)
+
+
 class TrainingLoop:
     """Base of the training loops: subclasses implement :meth:`train_iteration` (one iteration, top to bottom,
     returning its metrics or ``None`` when a stop request interrupted it) and may extend the checkpoint state
@@ -165,22 +175,15 @@ class TrainingLoop:
 
     def _record_episodes(self, stats: TensorDictBase) -> dict[str, float]:
         """Push the iteration's per-task episode statistics into the success window (a device -> host copy: on
-        a GPU it also ends the collection timing) and return the env health totals (worlds reset after a NaN /
-        runaway state, actions with a non-finite component) when the env reports them."""
-        unhealthy = stats.get("unhealthy", None)  # optional: envs other than mtbench's may not report them
-        nonfinite = stats.get("nonfinite_actions", None)
-        overflow = stats.get("contact_overflow", None)  # Parkour only
+        a GPU it also ends the collection timing) and return the run's env health totals
+        (:data:`ENV_HEALTH_TOTALS`) that the env reports."""
+        reported = [(stats.get(key, None), attr, metric) for key, attr, metric in ENV_HEALTH_TOTALS]
         self.window.push(stats)
         totals: dict[str, float] = {}
-        if unhealthy is not None:
-            self.unhealthy_resets += float(unhealthy.sum())
-            totals["env/unhealthy_resets_total"] = self.unhealthy_resets
-        if nonfinite is not None:  # policy actions with a NaN/inf component (replaced by 0 by the env)
-            self.nonfinite_actions += float(nonfinite.sum())
-            totals["env/nonfinite_actions_total"] = self.nonfinite_actions
-        if overflow is not None:
-            self.contact_overflows += float(overflow.sum())
-            totals["env/contact_overflow_steps_total"] = self.contact_overflows
+        for value, attr, metric in reported:  # each optional: envs other than mtbench's may not report them
+            if value is not None:
+                setattr(self, attr, getattr(self, attr) + float(value.sum()))
+                totals[metric] = getattr(self, attr)
         return totals
 
     @staticmethod
