@@ -10,7 +10,8 @@ import pytest
 import torch
 
 from mtbench.envs.metaworld.registry import TASKS
-from mtbench.envs.metaworld.reward_utils import grasp_place_reward, polyline_distance, progress
+from mtbench.envs.metaworld.reward_utils import (V2_PROGRESS_CAP, V2_PROGRESS_GAIN, grasp_place_reward, path_direction,
+                                                 polyline_distance, progress)
 from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, door_close, peg_insert_side,
                                           pick_place, pick_place_wall, push_wall, shelf_place)
 
@@ -104,6 +105,64 @@ def test_grasp_place_reward_pays_the_held_object_along_its_path() -> None:
     # the object at the goal without the hand (pushed or thrown there): no bonus
     away = r(obj0, GRIP, 0.15, 0.0, tcp_at=p(0.3, 0.6, 0.2))
     assert away.item() < 1.0
+
+
+def test_path_direction_points_at_the_next_waypoint() -> None:
+    points = [p(0.0, 0.0, 1.0), p(1.0, 0.0, 1.0)]
+    here = p(0.0, 0.0, 0.0)
+    torch.testing.assert_close(path_direction(here, points, torch.tensor([0])), p(0.0, 0.0, 1.0))
+    torch.testing.assert_close(path_direction(here, points, torch.tensor([1])), p(1.0, 0.0, 1.0) / math.sqrt(2.0))
+    torch.testing.assert_close(path_direction(here, points, torch.tensor([5])), p(1.0, 0.0, 1.0) / math.sqrt(2.0))
+    torch.testing.assert_close(path_direction(p(1.0, 0.0, 1.0), points, torch.tensor([1])), p(0.0, 0.0, 0.0))
+
+
+def test_grasp_place_reward_pays_the_held_objects_progress_speed() -> None:
+    """``progress_speed`` (since ``v2-2026-11-28d``) adds ``clip(1.2 * speed, -1, 1)`` while the object is held,
+    nothing otherwise."""
+    obj0, init_tcp = p(0.0, 0.6, 0.02), p(0.0, 0.6, 0.2)
+    kw = dict(obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
+              hold_radius=0.02, place_radius=0.05)
+    d0 = torch.tensor([0.3])
+
+    def r(rise: float, speed: float | None, tcp_at: torch.Tensor | None = None) -> torch.Tensor:
+        point = obj0 + torch.tensor([[0.0, 0.0, rise]])
+        tcp, left, right, opened = hand(point if tcp_at is None else tcp_at)
+        return grasp_place_reward(GRIP, tcp, left, right, opened, point, obj0, init_tcp, torch.tensor([rise]),
+                                  torch.tensor([0.2]), d0, **kw,
+                                  progress_speed=None if speed is None else torch.tensor([speed]))
+
+    held = r(0.05, None)
+    assert held.item() > 1.0  # held: 1 + 5 in_place + hamacher
+    close(r(0.05, 0.5) - held, V2_PROGRESS_GAIN * 0.5)
+    close(r(0.05, -0.25) - held, -V2_PROGRESS_GAIN * 0.25)
+    close(r(0.05, 3.0) - held, V2_PROGRESS_CAP)
+    close(r(0.05, -3.0) - held, -V2_PROGRESS_CAP)
+    assert (r(0.05, -3.0) >= 0).all()  # the held branch stays >= 0
+    # not held (hand away, or the object on the table): the speed is not paid
+    away = p(0.3, 0.6, 0.2)
+    close(r(0.05, 0.5, tcp_at=away), r(0.05, None, tcp_at=away).item())
+    close(r(0.0, 0.5), r(0.0, None).item())
+
+
+def test_object_velocity_is_the_free_bodys_velocity() -> None:
+    """``FreeObjectTask.object_velocity`` in a real env: a puck released 50 cm above its start falls freely, so
+    after the 3 control steps of ``substeps`` physics steps each (semi-implicit Euler, ``TIMESTEP``) its velocity is
+    (0, 0, -g * steps * TIMESTEP)."""
+    from tensordict import TensorDict
+
+    from mtbench.envs import make_env
+    from mtbench.envs.metaworld.scene import TIMESTEP
+
+    env = make_env(["push_wall"], num_envs=2, device="cpu", seed=0, reward_version="v2")
+    env.reset()
+    task, s = env.blocks[0]
+    task.set_free_body(s.sim, task.obj_qpos, s.obj_pos + torch.tensor([0.0, 0.0, 0.5]), torch.ones(2, dtype=torch.bool))
+    s.sim.qvel.zero_()
+    for _ in range(3):
+        env.step(TensorDict({"action": torch.zeros(2, 4)}, batch_size=[2]))
+    fall = -9.81 * 3 * s.sim.substeps * TIMESTEP
+    torch.testing.assert_close(task.object_velocity(s), torch.tensor([[0.0, 0.0, fall]] * 2), atol=2e-3, rtol=0.0)
+    env.close()
 
 
 def _expected(task_kw: dict, action, point, grasp_init, init_tcp, rise, dist, dist0, gap: float = 0.04):
@@ -297,7 +356,7 @@ def test_grasp_place_tasks_in_the_env() -> None:
     tasks = ["basketball", "box_close", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
              "shelf_place"]
     env = make_env(tasks, num_envs=[2] * len(tasks), device="cpu", seed=0, reward_version="v2")
-    assert env.reward_revision == "v2-2026-11-28c"
+    assert env.reward_revision == "v2-2026-11-28d"
     td = env.reset()
     g = torch.Generator().manual_seed(0)
     for _ in range(3):

@@ -37,6 +37,7 @@ __all__ = [
     "grasp_place_reward",
     "gripper_caging_reward",
     "polyline_distance",
+    "path_direction",
     "progress",
     "reach_progress_reward",
     "hamacher_product",
@@ -479,12 +480,27 @@ def polyline_distance(p: Tensor, points: list[Tensor], stage: Tensor) -> Tensor:
     return options.gather(-1, stage.long().clamp(0, k - 1).unsqueeze(-1)).squeeze(-1)
 
 
+V2_PROGRESS_GAIN = 1.2  # v2 (since v2-2026-11-28d): reward per m/s of the held object's speed towards its next waypoint
+V2_PROGRESS_CAP = 1.0  # ... at most +-1 per step (1 at 0.83 m/s, i.e. 1 cm per 12 ms control step)
+
+
+def path_direction(p: Tensor, points: list[Tensor], stage: Tensor) -> Tensor:
+    """Unit vectors ``[N, 3]`` from ``p`` towards its next waypoint ``points[stage]`` (the direction in which
+    :func:`polyline_distance` falls fastest); zero where ``p`` sits on the waypoint."""
+    stacked = torch.stack(points, dim=1)  # [N, k, 3]
+    index = stage.long().clamp(0, len(points) - 1)[:, None, None].expand(-1, 1, 3)
+    towards = stacked.gather(1, index).squeeze(1) - p
+    return towards / torch.linalg.vector_norm(towards, dim=-1, keepdim=True).clamp_min(1e-6)
+
+
 def grasp_place_reward(action: Tensor, tcp: Tensor, left_pad: Tensor, right_pad: Tensor, gripper_open: Tensor,
                        grasp_point: Tensor, grasp_init: Tensor, init_tcp: Tensor, rise: Tensor, dist: Tensor,
                        dist0: Tensor, *, obj_radius: float, pad_success_thresh: float, object_reach_radius: float,
-                       xz_thresh: float, hold_radius: float, place_radius: float) -> Tensor:
+                       xz_thresh: float, hold_radius: float, place_radius: float,
+                       progress_speed: Tensor | None = None) -> Tensor:
     """The v2 reward ``[N]`` (0..7) of a grasp-and-carry task: pick_place's paper-era form (the one MT-PPO learns in
-    the MT50 run) with the task's own grasp point and path to the goal::
+    the MT50 run) with the task's own grasp point and path to the goal, optionally paying the held object's speed
+    along that path (``progress_speed``, m/s towards the next waypoint: the carry paid at once)::
 
         in_place = tolerance(dist, (0, place_radius), margin=dist0, long_tail)
         grasp    = gripper_caging(grasp_point, obj_radius, pad_success_thresh, object_reach_radius, xz_thresh,
@@ -492,6 +508,7 @@ def grasp_place_reward(action: Tensor, tcp: Tensor, left_pad: Tensor, right_pad:
         r = hamacher(grasp, in_place)
         held = ‖tcp − grasp_point‖ < hold_radius and gripper_open > 0 and rise > 0.01
         if held:  r += 1 + 5·in_place
+        if held and progress_speed given:  r += clip(1.2 · progress_speed, -1, 1)
 
     ``dist``/``dist0`` are the object's current/initial path length to the goal (e.g. :func:`polyline_distance`
     through the waypoints that clear an obstacle), ``rise`` its height above its start. The caging term shapes the
@@ -508,4 +525,7 @@ def grasp_place_reward(action: Tensor, tcp: Tensor, left_pad: Tensor, right_pad:
     reward = hamacher_product(grasp, in_place)
     held = ((torch.linalg.vector_norm(tcp - grasp_point, dim=-1) < hold_radius) & (gripper_open > 0)
             & (rise > V2_LIFTED))
-    return torch.where(held, reward + 1.0 + 5.0 * in_place, reward)
+    held_reward = reward + 1.0 + 5.0 * in_place
+    if progress_speed is not None:
+        held_reward = held_reward + (V2_PROGRESS_GAIN * progress_speed).clamp(-V2_PROGRESS_CAP, V2_PROGRESS_CAP)
+    return torch.where(held, held_reward, reward)

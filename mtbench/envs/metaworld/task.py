@@ -31,14 +31,16 @@ HAND_HIGH = (0.525, 1.025, 0.7)
 # (``reward_v2``, ``success_reward_v2``): rewards of our design for the tasks that MT-PPO leaves at ~0% with the
 # paper-era rewards (docs/metaworld.md, "reward_version v2"; docs/results/mt50_rand_ppo.md).
 REWARD_VERSIONS: tuple[str, ...] = ("paper", "v2")
-REWARD_REVISIONS: dict[str, str] = {"paper": "paper", "v2": "v2-2026-11-28c"}
+REWARD_REVISIONS: dict[str, str] = {"paper": "paper", "v2": "v2-2026-11-28d"}
 """The definition each reward version has in this code, recorded in logs and checkpoints (a run resumes only into
 the same revision). ``v2`` revisions: ``v2-2026-11-25``, staged reach/grip/lift/carry rewards for the grasp-and-carry
 tasks (the first MT50-rand v2 run); ``v2-2026-11-28``, pick_place's paper-era form with each task's grasp point and
 path (``reward_utils.grasp_place_reward``) for basketball, box_close, disassemble, peg_insert_side,
 pick_place_wall, push_wall and shelf_place (its MT50-rand run); ``v2-2026-11-28b``, the same plus door_close's reach
 and linear closing reward (``tasks/door_close.py``; its MT50-rand run); ``v2-2026-11-28c``, the same plus stick_push
-keeps its paper-era reward exactly, evaluated with the original ``tolerance`` (``tasks/stick_push.py``)."""
+keeps its paper-era reward exactly, evaluated with the original ``tolerance`` (``tasks/stick_push.py``);
+``v2-2026-11-28d``, the same plus pick_place_wall, push_wall and shelf_place pay the held object's speed along its
+path (``grasp_place_reward``'s ``progress_speed``)."""
 
 Reward = Callable[["TaskState", torch.Tensor], torch.Tensor]
 
@@ -267,7 +269,13 @@ class FreeObjectTask(MetaWorldTask):
 
     def bind(self, model: mujoco.MjModel) -> None:
         self.obj_qpos = self.joint_qposadr(self.OBJ_JOINT)
+        self.obj_dof = int(model.joint(self.OBJ_JOINT).dofadr[0])
         self.obj_body = self.body_id(self.OBJ_BODY)
+
+    def object_velocity(self, s: TaskState) -> torch.Tensor:
+        """Linear velocity ``[n, 3]`` (m/s, world frame) of the object body's origin (its free joint's first three
+        velocity components)."""
+        return s.sim.qvel[:, self.obj_dof:self.obj_dof + 3]
 
     def sample(self, n: int, generator: torch.Generator, device: torch.device) -> torch.Tensor:
         vec = super().sample(n, generator, device)

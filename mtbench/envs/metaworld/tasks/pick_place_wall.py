@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import grasp_place_reward, gripper_caging_reward, hamacher_product, polyline_distance, tolerance
+from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, path_direction,
+                            polyline_distance, tolerance)
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState
 from ._wall import MIDPOINT_Y, V2_BEHIND_Y, V2_HOLD_RADIUS, V2_LIFT_Y, scaled_norm, wall_stage
@@ -53,8 +54,9 @@ V2_OVER_Z = 0.165  # v2: puck centre height that clears the 12 cm wall with the 
 
 def pick_place_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tensor, left_pad: torch.Tensor,
                               right_pad: torch.Tensor, gripper_open: torch.Tensor, goal: torch.Tensor,
-                              obj_init_pos: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+                              obj_init_pos: torch.Tensor, init_tcp: torch.Tensor,
+                              obj_vel: torch.Tensor | None = None) -> torch.Tensor:
+    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_place_reward` (pick_place's
     form) with the puck as grasp point and object, hold radius 2.5 cm, and the carry measured along the path lift (above
     the puck's start, at most at y = 0.625) -> over the wall at 0.165 -> behind it (y = 0.87, above the goal) -> goal,
     from the puck's current waypoint on (:func:`._wall.wall_stage`).
@@ -63,18 +65,23 @@ def pick_place_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torc
     line from the puck's start through the wall), pays the grasp through a hamacher product with that long-tail
     term and the carry only in the hand and 1.5 cm up; MT-PPO never lifts the puck over the wall (0%). The path
     here goes over the wall, and pick_place's form pays for the grasp and the way along it.
+    Since ``v2-2026-11-28d`` (with ``obj_vel``, the puck's velocity) the held puck's speed towards its next waypoint
+    is also paid (``progress_speed``): the MT50-rand policies held the object still one carry short of the goal
+    (docs/results/mt50_rand_ppo.md, "Where the policy stops").
     """
     lift = torch.stack([obj_init_pos[:, 0], obj_init_pos[:, 1].clamp_max(V2_LIFT_Y),
                         torch.full_like(obj[:, 2], V2_OVER_Z)], dim=-1)
     behind = torch.stack([goal[:, 0], torch.full_like(goal[:, 1], V2_BEHIND_Y), goal[:, 2].clamp_min(V2_OVER_Z)],
                          dim=-1)
     points = [lift, behind, goal]
-    carry = polyline_distance(obj, points, wall_stage(obj, obj[:, 2] >= V2_OVER_Z - 0.02))
+    stage = wall_stage(obj, obj[:, 2] >= V2_OVER_Z - 0.02)
+    carry = polyline_distance(obj, points, stage)
     carry0 = polyline_distance(obj_init_pos, points, torch.zeros_like(obj[:, 0], dtype=torch.long))
+    speed = None if obj_vel is None else (obj_vel * path_direction(obj, points, stage)).sum(-1)
     return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, obj_init_pos, init_tcp,
                               obj[:, 2] - obj_init_pos[:, 2], carry, carry0,
                               obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
-                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS, progress_speed=speed)
 
 
 def pick_place_wall_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -139,7 +146,7 @@ class PickPlaceWall(FreeObjectTask):
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return pick_place_wall_reward_v2(action, s.obj_pos, s.tcp, s.left_pad, s.right_pad, s.gripper_open, s.goal,
-                                         s.obj_init_pos, s.init_tcp)
+                                         s.obj_init_pos, s.init_tcp, self.object_velocity(s))
 
     def success_reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         """v2 pays the constant 10 on every success step (the paper-era rule pays ~0.05 on the success steps

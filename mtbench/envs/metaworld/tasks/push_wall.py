@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import grasp_place_reward, gripper_caging_reward, polyline_distance, tolerance
+from ..reward_utils import grasp_place_reward, gripper_caging_reward, path_direction, polyline_distance, tolerance
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState
 from ._wall import MIDPOINT_Y, V2_BEHIND_Y, V2_HOLD_RADIUS, V2_LIFT_Y, scaled_norm, wall_stage
@@ -43,8 +43,9 @@ V2_CARRY_Z = 0.03  # v2: puck centre 1 cm above the table while carried
 
 def push_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tensor, left_pad: torch.Tensor,
                         right_pad: torch.Tensor, gripper_open: torch.Tensor, goal: torch.Tensor,
-                        obj_init_pos: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+                        obj_init_pos: torch.Tensor, init_tcp: torch.Tensor,
+                        obj_vel: torch.Tensor | None = None) -> torch.Tensor:
+    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_place_reward` (pick_place's
     form) with the puck as grasp point and object, hold radius 2.5 cm, and the carry measured along the path around the
     wall's left end: sideways in front of the wall (y = 0.625) into the lane x = -0.07, along the lane to behind the
     wall (y = 0.87), then to the goal, from the puck's current waypoint on (0 outside the lane in front of the wall, 1
@@ -54,17 +55,22 @@ def push_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tens
     through a long-tail term towards a point behind the wall's end with the forward distance counted three times,
     which pays for pushing the puck straight into the wall; MT-PPO stays at 0%. v2 pays the grasp (caging) and,
     with the puck held and 1 cm up, the way along a path that clears the wall with the hand.
+    Since ``v2-2026-11-28d`` (with ``obj_vel``, the puck's velocity) the held puck's speed towards its next waypoint
+    is also paid (``progress_speed``): the MT50-rand policies held the object still one carry short of the goal
+    (docs/results/mt50_rand_ppo.md, "Where the policy stops").
     """
     z = torch.full_like(obj[:, 2], V2_CARRY_Z)
     lane_front = torch.stack([torch.full_like(z, V2_LANE_X), obj_init_pos[:, 1].clamp_max(V2_LIFT_Y), z], dim=-1)
     lane_back = torch.stack([torch.full_like(z, V2_LANE_X), torch.full_like(z, V2_BEHIND_Y), z], dim=-1)
     points = [lane_front, lane_back, goal]
-    carry = polyline_distance(obj, points, wall_stage(obj, obj[:, 0] <= V2_IN_LANE))
+    stage = wall_stage(obj, obj[:, 0] <= V2_IN_LANE)
+    carry = polyline_distance(obj, points, stage)
     carry0 = polyline_distance(obj_init_pos, points, torch.zeros_like(obj[:, 0], dtype=torch.long))
+    speed = None if obj_vel is None else (obj_vel * path_direction(obj, points, stage)).sum(-1)
     return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, obj_init_pos, init_tcp,
                               obj[:, 2] - obj_init_pos[:, 2], carry, carry0,
                               obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
-                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS, progress_speed=speed)
 
 
 def push_wall_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -114,7 +120,7 @@ class PushWall(FreeObjectTask):
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return push_wall_reward_v2(action, s.obj_pos, s.tcp, s.left_pad, s.right_pad, s.gripper_open, s.goal,
-                                   s.obj_init_pos, s.init_tcp)
+                                   s.obj_init_pos, s.init_tcp, self.object_velocity(s))
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return push_wall_success(s.obj_pos, s.goal)

@@ -6,7 +6,8 @@ from __future__ import annotations
 import mujoco
 import torch
 
-from ..reward_utils import grasp_place_reward, gripper_caging_reward, hamacher_product, polyline_distance, tolerance
+from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, path_direction,
+                            polyline_distance, tolerance)
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState, offset
 
@@ -60,8 +61,9 @@ V2_BELOW = 0.03  # v2: a block more than this below the goal is below the board'
 
 def shelf_place_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tensor, left_pad: torch.Tensor,
                           right_pad: torch.Tensor, gripper_open: torch.Tensor, goal: torch.Tensor,
-                          obj_init_pos: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+                          obj_init_pos: torch.Tensor, init_tcp: torch.Tensor,
+                          obj_vel: torch.Tensor | None = None) -> torch.Tensor:
+    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_place_reward` (pick_place's
     form) with the block as grasp point and object, hold radius 2 cm, and the carry measured along the path up to a
     point 16 cm in front of the goal at the goal's height, then straight in, while the block is in front of the board or
     below its top; straight to the goal otherwise.
@@ -70,15 +72,20 @@ def shelf_place_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Te
     the goal's height and pays 0 behind the goal, so carrying the block towards the shelf is punished on most of
     the way, and it pays the carry only in the hand and 1 cm up (0% for MT-PPO). The path here is the one that
     clears the board (the scripted policy's).
+    Since ``v2-2026-11-28d`` (with ``obj_vel``, the block's velocity) the held block's speed towards its next waypoint
+    is also paid (``progress_speed``): the MT50-rand policies held the object still one carry short of the goal
+    (docs/results/mt50_rand_ppo.md, "Where the policy stops").
     """
     front = torch.stack([goal[:, 0], goal[:, 1] - V2_FRONT, goal[:, 2]], dim=-1)
     outside = (obj[:, 1] < goal[:, 1] - V2_IN_FRONT) | (obj[:, 2] < goal[:, 2] - V2_BELOW)
-    carry = polyline_distance(obj, [front, goal], (~outside).long())
+    stage = (~outside).long()
+    carry = polyline_distance(obj, [front, goal], stage)
     carry0 = polyline_distance(obj_init_pos, [front, goal], torch.zeros_like(obj[:, 0], dtype=torch.long))
+    speed = None if obj_vel is None else (obj_vel * path_direction(obj, [front, goal], stage)).sum(-1)
     return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, obj_init_pos, init_tcp,
                               obj[:, 2] - obj_init_pos[:, 2], carry, carry0,
                               obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
-                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS, progress_speed=speed)
 
 
 def shelf_place_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -153,7 +160,7 @@ class ShelfPlace(FreeObjectTask):
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return shelf_place_reward_v2(action, s.obj_pos, s.tcp, s.left_pad, s.right_pad, s.gripper_open, s.goal,
-                                     s.obj_init_pos, s.init_tcp)
+                                     s.obj_init_pos, s.init_tcp, self.object_velocity(s))
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return shelf_place_success(s.obj_pos, s.goal)
