@@ -411,3 +411,45 @@ def test_stick_push_v2_is_its_paper_era_reward() -> None:
     assert torch.equal(paper[:, :4], v2[:, :4]) and paper[:, :4].max() > 5.0  # the path reaches the push
     assert (paper[:, 4:] - v2[:, 4:]).abs().max() > 1e-3
     torch.testing.assert_close(rewards("v2", compile_stages=True), v2, atol=1e-4, rtol=1e-5)
+
+
+def test_progress_speed_along_the_scripted_carries() -> None:
+    """Since ``v2-2026-11-28d`` pick_place_wall, push_wall and shelf_place pay the held object's speed along its
+    path: along the scripted controllers' carries the dense v2 term differs from the one without it by at most the
+    cap of 1 per step, and by a clear amount while pick_place_wall's and shelf_place's objects are carried; the
+    compiled torch stages pay the same
+    env rewards as the eager ones."""
+    from mtbench.envs import make_env
+    from mtbench.envs.metaworld.policies import scripted_policy
+
+    tasks = {"pick_place_wall": pick_place_wall.pick_place_wall_reward_v2,
+             "push_wall": push_wall.push_wall_reward_v2, "shelf_place": shelf_place.shelf_place_reward_v2}
+    policies = [scripted_policy(t) for t in tasks]
+
+    def run(compile_stages: bool) -> tuple[torch.Tensor, torch.Tensor]:
+        env = make_env(list(tasks), num_envs=[2] * len(tasks), device="cpu", seed=5, rand=True,
+                       random_start_progress=False, reward_version="v2", compile_stages=compile_stages)
+        td, rewards, paid = env.reset(), [], []
+        for _ in range(120):
+            obs = td["observation"][:, : env.state_dim]
+            action = torch.cat([p(obs[sl]) for p, sl in zip(policies, env.slices)])
+            td["action"] = action
+            out, td = env.step_and_maybe_reset(td)
+            rewards.append(out["next", "reward"].reshape(-1).clone())
+            step = []
+            for (task, s), sl, fn in zip(env.blocks, env.slices, tasks.values()):
+                args = (action[sl], s.obj_pos, s.tcp, s.left_pad, s.right_pad, s.gripper_open, s.goal,
+                        s.obj_init_pos, s.init_tcp)
+                step.append(fn(*args, task.object_velocity(s)) - fn(*args))
+            paid.append(torch.cat(step))
+        env.close()
+        return torch.stack(rewards), torch.stack(paid)
+
+    eager, paid = run(False)
+    assert paid.abs().max() <= 1.0 + 1e-5
+    # pick_place_wall's and shelf_place's objects are carried towards their next waypoints; push_wall's scripted
+    # controller slides the puck 0.98 cm up, below the 1 cm of ``held``, so it is not paid there
+    assert (paid[:, :2].amax(0) > 0.3).all() and (paid[:, 4:].amax(0) > 0.3).all()
+    assert paid[:, 2:4].abs().max() < 1e-6
+    compiled, _ = run(True)
+    torch.testing.assert_close(compiled, eager, atol=1e-4, rtol=1e-5)
