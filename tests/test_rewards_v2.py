@@ -417,8 +417,7 @@ def test_progress_speed_along_the_scripted_carries() -> None:
     """Since ``v2-2026-11-28d`` pick_place_wall, push_wall and shelf_place pay the held object's speed along its
     path: along the scripted controllers' carries the dense v2 term differs from the one without it by at most the
     cap of 1 per step, and by a clear amount while pick_place_wall's and shelf_place's objects are carried; the
-    compiled torch stages pay the same
-    env rewards as the eager ones."""
+    compiled torch stages pay the same env rewards as the eager ones."""
     from mtbench.envs import make_env
     from mtbench.envs.metaworld.policies import scripted_policy
 
