@@ -169,7 +169,8 @@ class MetaWorldTask:
     @staticmethod
     def set_free_body(sim: WarpSim, qposadr: int, pos: torch.Tensor, mask: torch.Tensor,
                       quat: torch.Tensor | None = None) -> None:
-        """Place a free-joint body at ``pos`` (and ``quat``, wxyz) in the worlds of ``mask``; zero its velocity."""
+        """Place a free-joint body at ``pos`` (and ``quat``, wxyz) in the worlds of ``mask`` (its position only: at a
+        reset the simulator's keyframe reset, which runs first, has zeroed the velocities)."""
         q = sim.qpos[:, qposadr:qposadr + 7]
         new = torch.cat([pos, quat if quat is not None else unit_quat(pos)], dim=-1)
         q.copy_(torch.where(mask[:, None], new, q))
