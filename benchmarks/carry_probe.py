@@ -32,33 +32,36 @@ def probe(checkpoint: str, tasks: Sequence[str], worlds_per_task: int, steer_fro
     cfg = OmegaConf.create(state["config"])
     dev = torch.device(device)
     env = make_eval_env(cfg.env, worlds_per_task * _task_count(state), dev, seed)
-    unknown = [t for t in tasks if t not in env.task_names]
-    if unknown:
-        raise ValueError(f"unknown tasks {unknown} for this checkpoint; valid choices: {list(env.task_names)}")
-    if not 0 <= steer_from < env.max_episode_steps:
-        raise ValueError(f"steer_from={steer_from} is out of range; it must be in [0, {env.max_episode_steps - 1}]")
-    policy = load_policy(state, env, dev)
-    index = {t: env.task_names.index(t) for t in tasks}
-    states = {t: env.blocks[i][1] for t, i in index.items()}
-    env.set_seed(seed)
-    torch.manual_seed(seed)
-    td = env.reset()
-    distance: dict[str, list[torch.Tensor]] = {t: [] for t in tasks}
-    reward: dict[str, list[torch.Tensor]] = {t: [] for t in tasks}
-    for step in range(env.max_episode_steps):
-        action = policy(td, True)
-        if step >= steer_from:
+    try:
+        unknown = [t for t in tasks if t not in env.task_names]
+        if unknown:
+            raise ValueError(f"unknown tasks {unknown} for this checkpoint; valid choices: {list(env.task_names)}")
+        if not 0 <= steer_from < env.max_episode_steps:
+            raise ValueError(f"steer_from={steer_from} is out of range; it must be in "
+                             f"[0, {env.max_episode_steps - 1}]")
+        policy = load_policy(state, env, dev)
+        index = {t: env.task_names.index(t) for t in tasks}
+        states = {t: env.blocks[i][1] for t, i in index.items()}
+        env.set_seed(seed)
+        torch.manual_seed(seed)
+        td = env.reset()
+        distance: dict[str, list[torch.Tensor]] = {t: [] for t in tasks}
+        reward: dict[str, list[torch.Tensor]] = {t: [] for t in tasks}
+        for step in range(env.max_episode_steps):
+            action = policy(td, True)
+            if step >= steer_from:
+                for t, i in index.items():
+                    s = states[t]
+                    action[env.slices[i], :3] = torch.clamp(gain * (s.goal - s.obj_pos), -1.0, 1.0)
+            td["action"] = action
+            out, td = env.step_and_maybe_reset(td)
             for t, i in index.items():
                 s = states[t]
-                action[env.slices[i], :3] = torch.clamp(gain * (s.goal - s.obj_pos), -1.0, 1.0)
-        td["action"] = action
-        out, td = env.step_and_maybe_reset(td)
-        for t, i in index.items():
-            s = states[t]
-            distance[t].append((s.obj_pos - s.goal).norm(dim=-1).clone())
-            reward[t].append(out["next", "reward"][env.slices[i]].reshape(-1).clone())
-    stats = env.pop_episode_stats()
-    env.close()
+                distance[t].append((s.obj_pos - s.goal).norm(dim=-1).clone())
+                reward[t].append(out["next", "reward"][env.slices[i]].reshape(-1).clone())
+        stats = env.pop_episode_stats()
+    finally:
+        env.close()
     return {t: {"distance": torch.stack(distance[t]).cpu(), "reward": torch.stack(reward[t]).cpu(),
                 "successes": int(stats["success"][i]), "episodes": int(stats["episodes"][i])}
             for t, i in index.items()}
