@@ -315,5 +315,5 @@ def offset(x: torch.Tensor, dx: float, dy: float, dz: float) -> torch.Tensor:
     return torch.stack([x[..., 0] + dx, x[..., 1] + dy, x[..., 2] + dz], dim=-1)
 
 
-__all__ = ["HAND_HIGH", "HAND_LOW", "REWARD_REVISIONS", "REWARD_VERSIONS", "check_reward_version", "FreeObjectTask", "MetaWorldTask", "Objects", "TaskState",
-           "offset", "unit_quat"]
+__all__ = ["HAND_HIGH", "HAND_LOW", "REWARD_REVISIONS", "REWARD_VERSIONS", "check_reward_version", "FreeObjectTask",
+           "MetaWorldTask", "Objects", "TaskState", "offset", "unit_quat"]
