@@ -498,9 +498,10 @@ def grasp_place_reward(action: Tensor, tcp: Tensor, left_pad: Tensor, right_pad:
                        dist0: Tensor, *, obj_radius: float, pad_success_thresh: float, object_reach_radius: float,
                        xz_thresh: float, hold_radius: float, place_radius: float,
                        progress_speed: Tensor | None = None) -> Tensor:
-    """The v2 reward ``[N]`` (0..7) of a grasp-and-carry task: pick_place's paper-era form (the one MT-PPO learns in
-    the MT50 run) with the task's own grasp point and path to the goal, optionally paying the held object's speed
-    along that path (``progress_speed``, m/s towards the next waypoint: the carry paid at once)::
+    """The v2 reward ``[N]`` (0..7; 0..8 with ``progress_speed``) of a grasp-and-carry task: pick_place's paper-era
+    form (the one MT-PPO learns in the MT50 run) with the task's own grasp point and path to the goal, optionally
+    paying the held object's speed along that path (``progress_speed``, m/s towards the next waypoint: the carry
+    paid at once)::
 
         in_place = tolerance(dist, (0, place_radius), margin=dist0, long_tail)
         grasp    = gripper_caging(grasp_point, obj_radius, pad_success_thresh, object_reach_radius, xz_thresh,
