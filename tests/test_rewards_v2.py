@@ -12,11 +12,11 @@ import torch
 from mtbench.envs.metaworld.registry import TASKS
 from mtbench.envs.metaworld.reward_utils import (V2_PROGRESS_CAP, V2_PROGRESS_GAIN, grasp_place_reward, path_direction,
                                                  polyline_distance, progress)
-from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, door_close, peg_insert_side,
-                                          pick_place, pick_place_wall, push_wall, shelf_place)
+from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, door_close, faucet_close,
+                                          peg_insert_side, pick_place, pick_place_wall, push_wall, shelf_place)
 
-V2_TASKS = {"basketball", "box_close", "dial_turn", "disassemble", "door_close", "peg_insert_side", "pick_place_wall",
-            "push_wall", "shelf_place", "stick_push"}
+V2_TASKS = {"basketball", "box_close", "dial_turn", "disassemble", "door_close", "door_open", "faucet_close",
+            "peg_insert_side", "pick_place_wall", "push_wall", "shelf_place", "stick_push"}
 GRIP = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
 OPEN = torch.tensor([[0.0, 0.0, 0.0, -1.0]])
 
@@ -213,6 +213,32 @@ def _kw(hold: float, place: float, obj_radius: float = 0.015, pad: float = 0.05,
                 hold_radius=hold, place_radius=place)
 
 
+def test_faucet_close_v2_keeps_the_hand_at_the_handle() -> None:
+    """v2 faucet_close: 0.2 at the start (long tail, 0.1 at the margin, times 2), 2 with the hand at the untouched
+    handle, linear in the handle's way, and the hand at the handle doubles the handle's pay: the v2c policy's end
+    state (handle at the goal, hand 19 cm away) earns ~half of the finished state, where the paper-era reward
+    pays 85% of it."""
+    faucet, init_tcp = p(0.078, 0.828, 0.0), p(0.0, 0.4, 0.2)
+    goal = faucet + p(-faucet_close.HANDLE_LENGTH, 0.0, 0.125)
+    start = faucet + p(*faucet_close.HANDLE_START)
+
+    def v2(tcp: torch.Tensor, handle: torch.Tensor) -> torch.Tensor:
+        return faucet_close.faucet_close_reward_v2(tcp, handle, goal, faucet, init_tcp)
+
+    close(v2(init_tcp, start), 0.2)
+    close(v2(start + p(0.04, 0.0, 0.0), start), 2.0)
+    d0 = (start - goal).norm().item()
+    half = goal + (start - goal) * (0.5 * (d0 - faucet_close.TARGET_RADIUS) + faucet_close.TARGET_RADIUS) / d0
+    close(v2(half, half), 2.0 + 1.5 + 1.5)
+    at_goal = p(-0.097, 0.813, 0.124)  # 1.5 cm from the goal (the hinge's limit)
+    close(v2(at_goal + p(0.03, 0.0, 0.0), at_goal), 8.0)
+    parked = p(0.016, 0.971, 0.082)  # the v2c policy's hand, 19 cm from the goal
+    assert 3.9 < v2(parked, at_goal).item() < 4.2
+    paper = faucet_close.faucet_close_reward
+    assert paper(parked, at_goal, goal, faucet, init_tcp).item() > 0.85 * paper(at_goal, at_goal, goal, faucet,
+                                                                             init_tcp).item()
+
+
 def test_basketball_v2() -> None:
     kw = _kw(basketball.V2_HOLD_RADIUS, basketball.TARGET_RADIUS, obj_radius=0.025, pad=0.06)
     ball0, goal, init_tcp = p(0.0, 0.65, 0.03), p(0.0, 0.8, 0.25), p(0.0, 0.6, 0.2)
@@ -356,7 +382,7 @@ def test_grasp_place_tasks_in_the_env() -> None:
     tasks = ["basketball", "box_close", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
              "shelf_place"]
     env = make_env(tasks, num_envs=[2] * len(tasks), device="cpu", seed=0, reward_version="v2")
-    assert env.reward_revision == "v2-2026-11-28d"
+    assert env.reward_revision == "v2-2026-11-28e"
     td = env.reset()
     g = torch.Generator().manual_seed(0)
     for _ in range(3):

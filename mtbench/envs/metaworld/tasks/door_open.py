@@ -20,6 +20,9 @@ Dense reward (paper-era MTBench, before its ``* .01``), with ``handle`` = MTBenc
 with ``theta`` the hinge angle (negative = open) and ``tcp_opened`` = pad distance / 0.095 clipped to [0, 1]
 (MTBench rewards an *open* gripper here; Meta-World v2 rewards the closing effort).
 
+``reward_version="v2"``: :func:`door_open_reward_v2` (reach the handle bar, then the push point on the panel's inner
+face once the door is open by 0.6 rad, plus linear pay for the door angle).
+
 Success (MTBench ``|door_y − target_y| ≤ 0.08`` in its frame, whose y axis is our −x and whose ``door`` is the
 handle point): ``|handle_x − goal_x| ≤ 0.08`` with goal = safe + (−0.3, −0.45, 0) (MTBench's target
 ``root + (−.45, .3, 0)``). With the handle point at ``door_link + (0.325, −0.062, 0)`` this holds for hinge angles in
@@ -48,6 +51,16 @@ GOAL_OFFSET = (-0.3, -0.45, 0.0)  # goal relative to the safe (MTBench's target_
 REACH_OFFSET = (0.075, -0.15, 0.0)  # MTBench's ``door`` point relative to the handle point
 FUNNEL_RADIUS = 0.12
 SUCCESS_TOL = 0.08
+# v2 reach targets, as the scripted controller's (policies/door_open.py), in door coordinates about the hinge (x along
+# the panel, y across it: negative on the handle's outer side)
+V2_SWITCH_ANGLE = 0.6  # rad: below it the hand should hook the bar, from it push the panel's inner face
+V2_HOOK = (0.40, -0.071)  # the open gripper's far finger between the bar and the panel ...
+V2_FINGER_Y = 0.054  # ... with the TCP this far towards the robot (world -y)
+V2_PUSH = (0.33, 0.055)  # TCP beside the panel's inner face near its free edge ...
+V2_PUSH_DZ = 0.10  # ... above the hinge centre (TCP z 0.25; the palm stays above the panel's top)
+V2_REACH_RADIUS = 0.05
+V2_REACH_MARGIN = 0.3  # about the hand's start -> hook and hook -> push point distances
+V2_OPEN_ANGLE = 1.5  # rad: ``opened`` is 1 from here (success needs 1.49)
 
 
 def door_open_reward(tcp: torch.Tensor, handle: torch.Tensor, theta: torch.Tensor,
@@ -69,6 +82,49 @@ def door_open_reward(tcp: torch.Tensor, handle: torch.Tensor, theta: torch.Tenso
     return 2.0 * hamacher_product(ready_to_open, tcp_opened) + 8.0 * opened
 
 
+def _door_point(hinge: torch.Tensor, theta: torch.Tensor, p: tuple[float, float]) -> torch.Tensor:
+    """World x-y ``[n, 2]`` of the door-coordinates point ``p`` with the door at hinge angle ``theta``."""
+    c, s = torch.cos(theta), torch.sin(theta)
+    return hinge[..., :2] + torch.stack([p[0] * c - p[1] * s, p[0] * s + p[1] * c], dim=-1)
+
+
+def door_open_reward_v2(tcp: torch.Tensor, hinge: torch.Tensor, theta: torch.Tensor) -> torch.Tensor:
+    """``reward_version="v2"`` dense reward ``[n]`` (0..8), with ``hinge`` the door body's origin (the hinge at the
+    handle's height) and ``a = −theta`` the door angle (0 closed)::
+
+        hook   = hinge + R(theta)·(0.40, −0.071) − (0, 0.054, 0)       # TCP of the open gripper round the bar
+        push   = hinge + R(theta)·(0.33, 0.055) + (0, 0, 0.10)          # TCP beside the panel's inner face
+        reach(p) = tolerance(‖tcp − p‖, (0, .05), margin=.3, long_tail)
+        opened = clamp(a / 1.5, 0, 1)
+        r = reach(hook) + 6·opened              while a < 0.6
+        r = 1 + reach(push) + 6·opened          from a = 0.6 on
+
+    Why: the paper-era reward's hand term pays 2 at a fixed point in front of the handle, which MT-PPO on MT50-rand
+    learns to park the open gripper at after pulling the door to ~0.9 rad (the bar then leaves the hand's
+    workspace; 0% success). Finishing needs the hand beside the panel's inner face pushing it on (the scripted
+    controller's phase B), and the paper-era reward pays nothing for getting there while taking away the 2 of the
+    parking spot. Here the reach target follows the door: the bar while pulling, the push point from 0.6 rad on;
+    the second stage's floor of 1 keeps the switch from lowering the reward (``reach(hook) ≤ 1``), every step of the
+    hand towards the push point pays, and opening pays 4 per radian all the way. At the parking spot (door at
+    0.97 rad) this pays 5.1, with the hand at the push point 5.9, finished 8 (the paper-era formula with the correct
+    ``tolerance``: 5.1 parked, 3.1 at the push point); along the scripted controller's path no step loses more
+    than 0.05.
+    """
+    z = hinge[..., 2:3]
+    hook_xy = _door_point(hinge, theta, V2_HOOK)
+    hook = torch.cat([hook_xy[..., :1], hook_xy[..., 1:] - V2_FINGER_Y, z], dim=-1)
+    push = torch.cat([_door_point(hinge, theta, V2_PUSH), z + V2_PUSH_DZ], dim=-1)
+
+    def reach(target: torch.Tensor) -> torch.Tensor:
+        return tolerance((tcp - target).norm(dim=-1), bounds=(0.0, V2_REACH_RADIUS), margin=V2_REACH_MARGIN,
+                         sigmoid="long_tail")
+
+    angle = -theta
+    opened = (angle / V2_OPEN_ANGLE).clamp(0.0, 1.0)
+    staged = torch.where(angle < V2_SWITCH_ANGLE, reach(hook), 1.0 + reach(push))
+    return staged + 6.0 * opened
+
+
 def door_open_success(handle: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
     """``|handle_x − goal_x| ≤ 0.08`` (MTBench's rule in our frame; ``[n]`` bool)."""
     return (handle[..., 0] - goal[..., 0]).abs() <= SUCCESS_TOL
@@ -78,6 +134,7 @@ class DoorOpen(MetaWorldTask):
     """Swing the safe door open by about 90 degrees (see the module docstring).
 
     Observation: object 1 = MTBench's handle point and the door's quaternion; goal = safe + (−0.3, −0.45, 0).
+    ``reward_version="v2"``: :func:`door_open_reward_v2` (hook the bar, then push the panel's inner face).
     """
 
     name = "door_open"
@@ -112,6 +169,9 @@ class DoorOpen(MetaWorldTask):
     def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         tcp_opened = mtbench_gripper_openness(s.left_pad, s.right_pad)
         return door_open_reward(s.tcp, s.obj_pos, s.sim.qpos[:, self.door_qpos], tcp_opened)
+
+    def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return door_open_reward_v2(s.tcp, s.sim.xpos[:, self.door_body], s.sim.qpos[:, self.door_qpos])
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return door_open_success(s.obj_pos, s.goal)
