@@ -44,7 +44,8 @@ path (``grasp_place_reward``'s ``progress_speed``); ``v2-2026-11-28e``, the same
 follows the door (the bar, then the panel's inner face) with linear pay for the angle (``tasks/door_open.py``) and
 faucet_close's hand kept at the handle (``tasks/faucet_close.py``); ``v2-2026-11-28f``, the same plus basketball's
 carry along a path that rises in front of the hoop, basketball and peg_insert_side paying the held object's
-speed along its path, and shelf_place's path turning in at its front point."""
+speed along its path, shelf_place's path turning in at its front point, and assembly in the grasp-and-carry form
+(``tasks/assembly.py``)."""
 
 Reward = Callable[["TaskState", torch.Tensor], torch.Tensor]
 
