@@ -12,10 +12,11 @@ import torch
 from mtbench.envs.metaworld.registry import TASKS
 from mtbench.envs.metaworld.reward_utils import (V2_PROGRESS_CAP, V2_PROGRESS_GAIN, grasp_place_reward, path_direction,
                                                  polyline_distance, progress)
-from mtbench.envs.metaworld.tasks import (basketball, box_close, dial_turn, disassemble, door_close, faucet_close,
-                                          peg_insert_side, pick_place, pick_place_wall, push_wall, shelf_place)
+from mtbench.envs.metaworld.tasks import (assembly, basketball, box_close, dial_turn, disassemble, door_close,
+                                          faucet_close, peg_insert_side, pick_place, pick_place_wall, push_wall,
+                                          shelf_place)
 
-V2_TASKS = {"basketball", "box_close", "dial_turn", "disassemble", "door_close", "door_open", "faucet_close",
+V2_TASKS = {"assembly", "basketball", "box_close", "dial_turn", "disassemble", "door_close", "door_open", "faucet_close",
             "peg_insert_side", "pick_place_wall", "push_wall", "shelf_place", "stick_push"}
 GRIP = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
 OPEN = torch.tensor([[0.0, 0.0, 0.0, -1.0]])
@@ -240,17 +241,68 @@ def test_faucet_close_v2_keeps_the_hand_at_the_handle() -> None:
 
 
 def test_basketball_v2() -> None:
+    """The ball's path rises 17 cm in front of the hoop to 8.5 cm above its centre, crosses to above it, then goes
+    down into it; a ball held under the ring (where the straight line to the centre is blocked) is paid less than
+    one held at the rise point, the reverse of the straight-line carry."""
     kw = _kw(basketball.V2_HOLD_RADIUS, basketball.TARGET_RADIUS, obj_radius=0.025, pad=0.06)
     ball0, goal, init_tcp = p(0.0, 0.65, 0.03), p(0.0, 0.8, 0.25), p(0.0, 0.6, 0.2)
-    d0 = (ball0 - goal).norm().item()
-    at_ball = basketball.basketball_reward_v2(GRIP, ball0, *hand(ball0), goal, ball0, init_tcp)
-    torch.testing.assert_close(at_ball, _expected(kw, GRIP, ball0, ball0, init_tcp, 0.0, d0, d0))
-    assert at_ball.item() < 1.0  # at the ball, closing, not lifted
-    near_goal = p(0.0, 0.8 - basketball.TARGET_RADIUS, 0.25)  # held 8 cm in front of the hoop centre
-    held = basketball.basketball_reward_v2(GRIP, near_goal, *hand(near_goal), goal, ball0, init_tcp)
-    torch.testing.assert_close(held, _expected(kw, GRIP, near_goal, ball0, init_tcp, 0.22, basketball.TARGET_RADIUS,
-                                               d0))
-    assert held.item() >= 6.0
+    rise, over = p(0.0, 0.63, 0.335), p(0.0, 0.8, 0.335)
+    length0 = (rise - ball0).norm().item() + 0.17 + 0.085
+    points, stage = basketball.basketball_path(torch.cat([ball0, rise, over + p(0.01, 0.0, 0.0)]), goal.expand(3, 3))
+    assert stage.tolist() == [0, 1, 2]
+    torch.testing.assert_close(points[0], rise.expand(3, 3))
+
+    def v2(ball: torch.Tensor) -> torch.Tensor:
+        return basketball.basketball_reward_v2(GRIP, ball, *hand(ball), goal, ball0, init_tcp)
+
+    torch.testing.assert_close(v2(ball0), _expected(kw, GRIP, ball0, ball0, init_tcp, 0.0, length0, length0))
+    assert v2(ball0).item() < 1.0  # at the ball, closing, not lifted
+    torch.testing.assert_close(v2(rise), _expected(kw, GRIP, rise, ball0, init_tcp, 0.305, 0.17 + 0.085, length0))
+    torch.testing.assert_close(v2(over), _expected(kw, GRIP, over, ball0, init_tcp, 0.305, 0.085, length0))
+    under_ring = p(0.0, 0.82, 0.10)  # the MT50-rand policies' stop, 15 cm below the centre
+    assert v2(under_ring).item() < v2(rise).item() < v2(over).item()
+    assert v2(over).item() >= 6.0
+    # with the ball's velocity: its speed towards the next waypoint, clip(1.2 v, -1, 1), while held
+    up = p(0.0, 0.0, 0.5)
+    moving = basketball.basketball_reward_v2(GRIP, ball0 + p(0.0, 0.0, 0.05), *hand(ball0 + p(0.0, 0.0, 0.05)), goal,
+                                             ball0, init_tcp, up)
+    still = v2(ball0 + p(0.0, 0.0, 0.05))
+    u = rise - (ball0 + p(0.0, 0.0, 0.05))
+    close(moving - still, 1.2 * 0.5 * (u[0, 2] / u.norm()).item())
+
+
+def test_assembly_v2() -> None:
+    """The ring's path goes up to 16 cm on the peg's axis, then down to 2 cm below the target; the handle is the
+    grasp point, the ring's rise counts as the lift. Held over the peg pays more than held at the MT50-rand
+    policies' stop (lifted 14 cm, 16 cm from the target), seated pays the most."""
+    kw = _kw(assembly.V2_HOLD_RADIUS, assembly.ALIGNED_RADIUS, obj_radius=0.02, reach=0.0)
+    ring0, goal, init_tcp = p(0.0, 0.6, 0.02), p(0.05, 0.8, 0.15), p(0.0, 0.6, 0.2)
+    handle0 = ring0 + p(assembly.HANDLE_OFFSET, 0.0, 0.0)
+    over, seat = p(0.05, 0.8, 0.16), p(0.05, 0.8, 0.13)
+    length0 = (over - ring0).norm().item() + 0.03
+    points, stage = assembly.assembly_path(torch.cat([ring0, over + p(0.01, 0.0, 0.0)]), goal.expand(2, 3))
+    assert stage.tolist() == [0, 1]
+    torch.testing.assert_close(points[0], over.expand(2, 3))
+    torch.testing.assert_close(points[1], seat.expand(2, 3))
+
+    def v2(ring: torch.Tensor) -> torch.Tensor:
+        handle = ring + (handle0 - ring0)
+        return assembly.assembly_reward_v2(GRIP, handle, ring, *hand(handle), goal, ring0, init_tcp)
+
+    def expected(ring: torch.Tensor, dist: float) -> torch.Tensor:
+        handle = ring + (handle0 - ring0)
+        return _expected(kw, GRIP, handle, handle0, init_tcp, (ring - ring0)[0, 2].item(), dist, length0)
+
+    torch.testing.assert_close(v2(ring0), expected(ring0, length0))
+    torch.testing.assert_close(v2(over), expected(over, 0.03), atol=1e-5, rtol=0.0)
+    torch.testing.assert_close(v2(seat), expected(seat, 0.0), atol=1e-5, rtol=0.0)
+    stop = p(-0.05, 0.7, 0.137)
+    assert v2(ring0).item() < 1.0 < v2(stop).item() < v2(over).item() < v2(seat).item()
+    vel = p(0.0, 0.3, 0.0)  # towards the peg: paid while held
+    handle = stop + (handle0 - ring0)
+    moving = assembly.assembly_reward_v2(GRIP, handle, stop, *hand(handle), goal, ring0, init_tcp, vel)
+    u = (over - stop) / (over - stop).norm()
+    close(moving - v2(stop), 1.2 * (vel * u).sum().item())
 
 
 def test_box_close_v2_goes_over_the_walls() -> None:
@@ -347,6 +399,11 @@ def test_shelf_place_v2() -> None:
     # under the board (below the goal's height, past the front edge) counts as the long way round
     under = p(0.05, 0.85, 0.15)
     assert (v2(under) < v2(front)).item()
+    # on from the front point the reward rises at every centimetre (v2-2026-11-28f; before, it fell for 3 cm)
+    way_in = torch.cat([front + p(0.0, 0.005 * k, 0.0) for k in range(0, 33)])
+    held = shelf_place.shelf_place_reward_v2(GRIP.expand(33, 4), way_in, *hand(way_in), goal.expand(33, 3),
+                                             block0.expand(33, 3), init_tcp.expand(33, 3))
+    assert (held.diff() >= 0).all() and (held[:23].diff() > 0).all()  # 7 within the 5 cm place radius
     assert v2(block0).item() < 1.0 < v2(front).item() < v2(goal).item()
     assert v2(goal).item() >= 6.0
 
@@ -372,6 +429,14 @@ def test_peg_insert_side_v2() -> None:
     torch.testing.assert_close(v2(goal), expected(goal, 0.0), atol=1e-5, rtol=0.0)
     assert v2(head0).item() < 1.0 < v2(entry).item() < v2(goal).item()
     assert v2(goal).item() >= 6.0
+    # with the peg's velocity (since v2-2026-11-28f): the held peg's speed towards the head's next waypoint
+    lifted = head0 + p(0.0, 0.0, 0.1)
+    grasp = lifted + (grasp0 - head0)
+    vel = p(-0.3, 0.0, 0.0)
+    moving = peg_insert_side.peg_insert_side_reward_v2(GRIP, grasp, lifted, *hand(grasp), goal, peg0, head0, init_tcp,
+                                                       vel)
+    u = (entry - lifted) / (entry - lifted).norm()
+    close(moving - v2(lifted), 1.2 * (vel * u).sum().item())
 
 
 def test_grasp_place_tasks_in_the_env() -> None:
@@ -379,10 +444,10 @@ def test_grasp_place_tasks_in_the_env() -> None:
     0..7, success 10), and their revision is recorded."""
     from mtbench.envs import make_env
 
-    tasks = ["basketball", "box_close", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
+    tasks = ["assembly", "basketball", "box_close", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
              "shelf_place"]
     env = make_env(tasks, num_envs=[2] * len(tasks), device="cpu", seed=0, reward_version="v2")
-    assert env.reward_revision == "v2-2026-11-28e"
+    assert env.reward_revision == "v2-2026-11-28f"
     td = env.reset()
     g = torch.Generator().manual_seed(0)
     for _ in range(3):
@@ -478,3 +543,39 @@ def test_progress_speed_along_the_scripted_carries() -> None:
     assert paid[:, 2:4].abs().max() < 1e-6
     compiled, _ = run(True)
     torch.testing.assert_close(compiled, eager, atol=1e-4, rtol=1e-5)
+
+
+def test_progress_speed_of_basketball_and_peg_insert_side() -> None:
+    """Since ``v2-2026-11-28f`` basketball and peg_insert_side pay it too: along the scripted controllers' carries
+    the paid term stays within the cap and is clearly positive while the ball rises to the hoop and the peg moves
+    towards the block."""
+    from mtbench.envs import make_env
+    from mtbench.envs.metaworld.policies import scripted_policy
+
+    tasks = ["basketball", "peg_insert_side"]
+    policies = [scripted_policy(t) for t in tasks]
+    env = make_env(tasks, num_envs=[2, 2], device="cpu", seed=5, rand=True, random_start_progress=False,
+                   reward_version="v2")
+    (ball_task, ball), (peg_task, peg) = env.blocks
+    td, paid = env.reset(), []
+    for _ in range(120):
+        obs = td["observation"][:, : env.state_dim]
+        action = torch.cat([p(obs[sl]) for p, sl in zip(policies, env.slices)])
+        td["action"] = action
+        _, td = env.step_and_maybe_reset(td)
+        a, b = action[env.slices[0]], action[env.slices[1]]
+        args = (a, ball.obj_pos, ball.tcp, ball.left_pad, ball.right_pad, ball.gripper_open, ball.goal,
+                ball.obj_init_pos, ball.init_tcp)
+        ball_paid = (basketball.basketball_reward_v2(*args, ball_task.object_velocity(ball))
+                     - basketball.basketball_reward_v2(*args))
+        head = peg.sim.site_xpos[:, peg_task.head_site]
+        args = (b, peg.obj_pos, head, peg.tcp, peg.left_pad, peg.right_pad, peg.gripper_open, peg.goal,
+                peg.obj_init_pos, peg.buffers["head_init"], peg.init_tcp)
+        vel = peg.sim.qvel[:, peg_task.peg_dof:peg_task.peg_dof + 3]
+        peg_paid = (peg_insert_side.peg_insert_side_reward_v2(*args, vel)
+                    - peg_insert_side.peg_insert_side_reward_v2(*args))
+        paid.append(torch.cat([ball_paid, peg_paid]))
+    env.close()
+    paid = torch.stack(paid)
+    assert paid.abs().max() <= 1.0 + 1e-5
+    assert (paid.amax(0) > 0.3).all()

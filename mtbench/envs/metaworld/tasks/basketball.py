@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import grasp_place_reward, gripper_caging_reward, hamacher_product, tolerance
+from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, path_direction,
+                            polyline_distance, tolerance)
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState, offset
 
@@ -34,23 +35,50 @@ def basketball_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: tor
 V2_HOLD_RADIUS = 0.03  # v2: TCP within the ball's radius of its centre (Meta-World's hold radius: 3.5 cm)
 
 
+V2_DROP_ABOVE = 0.085  # v2: the ball is carried to this far above the hoop centre (the scripted drop point) ...
+V2_RISE_BEFORE = 0.17  # ... after rising to that height this far in front of the hoop (the palm clears the ring)
+V2_HIGH = 0.02  # v2: a ball within this of the drop height counts as risen
+V2_OVER = 0.02  # v2: a risen ball within this of the hoop's axis (horizontally) goes straight down to the centre
+
+
+def basketball_path(ball: torch.Tensor, goal: torch.Tensor) -> tuple[list[torch.Tensor], torch.Tensor]:
+    """The v2 carry path of the ball: waypoints ``[rise, over, goal]`` (each ``[n, 3]``) and the ball's next
+    waypoint ``[n]``: rise to the drop height 17 cm in front of the hoop (0), across to above the hoop (1) once
+    risen, down to the hoop centre (2) once above it (the scripted controller's way; a ball lifted straight up
+    under the ring is blocked by it)."""
+    drop_z = goal[:, 2] + V2_DROP_ABOVE
+    rise = torch.stack([goal[:, 0], goal[:, 1] - V2_RISE_BEFORE, drop_z], dim=-1)
+    over = torch.stack([goal[:, 0], goal[:, 1], drop_z], dim=-1)
+    risen = ball[:, 2] >= drop_z - V2_HIGH
+    above = risen & ((ball[:, :2] - goal[:, :2]).norm(dim=-1) < V2_OVER)
+    return [rise, over, goal], risen.long() + above.long()
+
+
 def basketball_reward_v2(action: torch.Tensor, ball: torch.Tensor, tcp: torch.Tensor, left_pad: torch.Tensor,
                          right_pad: torch.Tensor, gripper_open: torch.Tensor, goal: torch.Tensor,
-                         ball_init: torch.Tensor, init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
-    form) with the ball as grasp point and object, hold radius 3 cm, and the carry measured by the straight distance
-    ball -> hoop centre (the success sphere of 8 cm reaches in front of and above the ring, so a held ball reaches it
-    without passing through the ring).
+                         ball_init: torch.Tensor, init_tcp: torch.Tensor,
+                         ball_vel: torch.Tensor | None = None) -> torch.Tensor:
+    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+    form) with the ball as grasp point and object, hold radius 3 cm, and the carry measured along
+    :func:`basketball_path` (rise in front of the hoop, across above it, down into it); with ``ball_vel`` (the ball's
+    velocity) the held ball's speed towards its next waypoint is also paid (``progress_speed``).
 
     Why: the paper-era reward pays for reaching and caging through a hamacher product with the long-tail
     ``in_place`` (0.1 until the ball moves towards the hoop) and pays the carry only while the TCP is within
     2 cm of the ball's centre (the ball's radius is 3 cm) and the ball 1 cm up. v2 holds it within 3 cm.
+    Since ``v2-2026-11-28f`` the carry runs along a path instead of the straight line to the hoop centre: the
+    MT50-rand policies (revisions c and e) carried the ball straight towards the hoop, under the ring, and held it
+    there 15 cm below the centre, where the ring blocks the way up (docs/results/mt50_rand_ppo.md, "Where the
+    policy stops").
     """
-    dist, dist0 = (ball - goal).norm(dim=-1), (ball_init - goal).norm(dim=-1)
+    points, stage = basketball_path(ball, goal)
+    dist = polyline_distance(ball, points, stage)
+    dist0 = polyline_distance(ball_init, points, torch.zeros_like(stage))
+    speed = None if ball_vel is None else (ball_vel * path_direction(ball, points, stage)).sum(-1)
     return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, ball, ball_init, init_tcp,
                               ball[:, 2] - ball_init[:, 2], dist, dist0,
                               obj_radius=0.025, pad_success_thresh=0.06, object_reach_radius=0.01, xz_thresh=0.005,
-                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS, progress_speed=speed)
 
 
 def basketball_success(obj: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -82,7 +110,8 @@ class Basketball(FreeObjectTask):
 
     (Meta-World v2: z error weighted 2 with the target at z = 0.3, high-density caging, grasp forced to 1 when
     lifted, 3.5 cm hold radius.) Success (MTBench and Meta-World): ``‖ball − hoop centre‖ < 0.08``.
-    ``reward_version="v2"``: :func:`basketball_reward_v2` (pick_place's form, held within 3 cm).
+    ``reward_version="v2"``: :func:`basketball_reward_v2` (pick_place's form, held within 3 cm, carried along
+    :func:`basketball_path`).
     """
 
     name = "basketball"
@@ -98,6 +127,7 @@ class Basketball(FreeObjectTask):
     def bind(self, model) -> None:
         self.obj_body = self.body_id(self.OBJ_BODY)
         self.obj_qpos = int(model.jnt_qposadr[model.body_jntadr[self.obj_body]])
+        self.obj_dof = int(model.jnt_dofadr[model.body_jntadr[self.obj_body]])
         self.stand_body = self.body_id("basket_goal")
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
@@ -110,7 +140,7 @@ class Basketball(FreeObjectTask):
 
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return basketball_reward_v2(action, s.obj_pos, s.tcp, s.left_pad, s.right_pad, s.gripper_open, s.goal,
-                                    s.obj_init_pos, s.init_tcp)
+                                    s.obj_init_pos, s.init_tcp, self.object_velocity(s))
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return basketball_success(s.obj_pos, s.goal)

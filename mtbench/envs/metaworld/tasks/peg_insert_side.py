@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, polyline_distance,
-                            rect_prism_tolerance, tolerance)
+from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, path_direction,
+                            polyline_distance, rect_prism_tolerance, tolerance)
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
 from ._grasp import grasped_and_lifted
@@ -55,11 +55,14 @@ GRASP_FROM_BODY = (0.03, 0.0, 0.01)  # the pegGrasp site in the peg body frame (
 def peg_insert_side_reward_v2(action: torch.Tensor, obj: torch.Tensor, head: torch.Tensor, tcp: torch.Tensor,
                               left_pad: torch.Tensor, right_pad: torch.Tensor, gripper_open: torch.Tensor,
                               goal: torch.Tensor, peg_init: torch.Tensor, head_init: torch.Tensor,
-                              init_tcp: torch.Tensor) -> torch.Tensor:
-    """``reward_version="v2"`` dense reward ``[n]`` (0..7): :func:`~..reward_utils.grasp_place_reward` (pick_place's
+                              init_tcp: torch.Tensor, peg_vel: torch.Tensor | None = None) -> torch.Tensor:
+    """``reward_version="v2"`` dense reward ``[n]`` (0..8): :func:`~..reward_utils.grasp_place_reward` (pick_place's
     form) with the pegGrasp site as grasp point and the peg head as object, hold radius 3 cm, and the carry measured
     along the path head -> entry point 12 cm in front of the hole on its axis -> goal, straight in once the head is
-    lined up with the hole (within 1.5 cm in y and z) and no farther out than the entry point.
+    lined up with the hole (within 1.5 cm in y and z) and no farther out than the entry point. With ``peg_vel`` (the
+    peg body's linear velocity) the held peg's speed towards the head's next waypoint is also paid
+    (``progress_speed``, since ``v2-2026-11-28f``: the MT50-rand policies of revisions c and e lift the peg and
+    hold it still, 44 cm from the hole).
 
     Why: the paper-era reward multiplies its long-tail ``in_place`` by the two box-shaped terms in front of the
     block (1 outside them, a ramp inside), pays the carry only with the peg 1 cm up, and measures a straight
@@ -70,11 +73,12 @@ def peg_insert_side_reward_v2(action: torch.Tensor, obj: torch.Tensor, head: tor
     aligned = ((head[:, 1:] - goal[:, 1:]).abs() < V2_ALIGNED).all(dim=-1) & (head[:, 0] < entry[:, 0] + 0.02)
     carry = polyline_distance(head, [entry, goal], aligned.long())
     carry0 = polyline_distance(head_init, [entry, goal], torch.zeros_like(head[:, 0], dtype=torch.long))
+    speed = None if peg_vel is None else (peg_vel * path_direction(head, [entry, goal], aligned.long())).sum(-1)
     grasp_init = offset(peg_init, *GRASP_FROM_BODY)
     return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, grasp_init, init_tcp,
                               obj[:, 2] - grasp_init[:, 2], carry, carry0,
                               obj_radius=0.02, pad_success_thresh=0.05, object_reach_radius=0.0, xz_thresh=0.005,
-                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS)
+                              hold_radius=V2_HOLD_RADIUS, place_radius=TARGET_RADIUS, progress_speed=speed)
 
 
 def peg_insert_side_success(head: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
@@ -130,6 +134,7 @@ class PegInsertSide(MetaWorldTask):
         self.peg_body = self.body_id("peg")
         self.box_body = self.body_id("box")
         self.peg_qpos = int(model.jnt_qposadr[model.body_jntadr[self.peg_body]])
+        self.peg_dof = int(model.jnt_dofadr[model.body_jntadr[self.peg_body]])
         self.grasp_site = self.site_id("pegGrasp")
         self.head_site = self.site_id("pegHead")
         self.box_sites = [self.site_id(n) for n in (
@@ -157,7 +162,7 @@ class PegInsertSide(MetaWorldTask):
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return peg_insert_side_reward_v2(action, s.obj_pos, s.sim.site_xpos[:, self.head_site], s.tcp, s.left_pad,
                                          s.right_pad, s.gripper_open, s.goal, s.obj_init_pos, s.buffers["head_init"],
-                                         s.init_tcp)
+                                         s.init_tcp, s.sim.qvel[:, self.peg_dof:self.peg_dof + 3])
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return peg_insert_side_success(s.sim.site_xpos[:, self.head_site], s.goal)

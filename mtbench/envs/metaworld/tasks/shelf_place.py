@@ -55,7 +55,6 @@ def shelf_place_reward(action: torch.Tensor, obj: torch.Tensor, gripper_open: to
 
 V2_HOLD_RADIUS = 0.02  # v2: TCP within 2 cm of the block's centre (pick_place's value)
 V2_FRONT = 0.16  # v2: the block waits this far in front of the goal (the board's front edge is 11 cm in front)
-V2_IN_FRONT = 0.13  # v2: the block (2 cm half size) is in front of the board while y < goal_y - this
 V2_BELOW = 0.03  # v2: a block more than this below the goal is below the board's top (goal: 5 cm above it)
 
 
@@ -74,10 +73,12 @@ def shelf_place_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Te
     clears the board (the scripted policy's).
     Since ``v2-2026-11-28d`` (with ``obj_vel``, the block's velocity) the held block's speed towards its next waypoint
     is also paid (``progress_speed``): the MT50-rand policies held the object still one carry short of the goal
-    (docs/results/mt50_rand_ppo.md, "Where the policy stops").
+    (docs/results/mt50_rand_ppo.md, "Where the policy stops"). Since ``v2-2026-11-28f`` the path turns straight in
+    at the front point itself (before: 3 cm past it, so that the path length *grew* by up to 3 cm over the first
+    3 cm in, a dip in the reward just where the block has to go on).
     """
     front = torch.stack([goal[:, 0], goal[:, 1] - V2_FRONT, goal[:, 2]], dim=-1)
-    outside = (obj[:, 1] < goal[:, 1] - V2_IN_FRONT) | (obj[:, 2] < goal[:, 2] - V2_BELOW)
+    outside = (obj[:, 1] < goal[:, 1] - V2_FRONT) | (obj[:, 2] < goal[:, 2] - V2_BELOW)
     stage = (~outside).long()
     carry = polyline_distance(obj, [front, goal], stage)
     carry0 = polyline_distance(obj_init_pos, [front, goal], torch.zeros_like(obj[:, 0], dtype=torch.long))
