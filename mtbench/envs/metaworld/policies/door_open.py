@@ -22,22 +22,15 @@ import math
 
 import torch
 
+from ..tasks._door import HOOK, HOOK_TCP_Y, PUSH, PUSH_Z, door_point
 from ._common import action, move, parse
 
 HINGE_FROM_GOAL = (0.115, 0.35)  # hinge (x, y) = goal + this
 HANDLE_AT_ZERO = (0.325, -0.062)  # observed handle point relative to the hinge with the door closed
 HANDLE_PHASE = math.atan2(HANDLE_AT_ZERO[1], HANDLE_AT_ZERO[0])
-FINGER_Y = 0.054  # open gripper: finger centre to TCP distance along world y
-# phase A: far (+y) finger centre in door coordinates (x along the panel from the hinge, y = -(distance from the
-# panel's centre plane) on its outer side): 1.35 cm behind the bar (back face at -0.097) with the palm, which
-# reaches 10 cm beyond the TCP along y, 1.5 cm in front of the panel (outer face at -0.01)
-HOOK = (0.40, -0.071)
 HANDLE_Z = 0.15  # handle height above the table
 ABOVE_BAR_Z = 0.20  # TCP height while moving over the bar (fingertips clear its top at 0.173)
-# phase B: TCP in door coordinates on the panel's inner side (panel inner face at y = +0.01)
-PUSH = (0.33, 0.055)
 PUSH_INTO = 0.03  # phase B: normal offset of the pushing target (the fingers press into the panel's inner face)
-PUSH_Z = 0.25  # fingertips overlap the panel's top 3 cm; the palm (from TCP + 3.7 cm) stays above it (0.273)
 CLEAR_Z = 0.31  # TCP height that clears the panel top (0.273) when moving between the phases
 SWITCH_ANGLE = -0.6  # rad: phase A pulls the door this far, phase B pushes it on
 LEAD = 0.3  # rad: the hand leads the door along its arc by this angle
@@ -47,12 +40,6 @@ ALIGNED = 0.015  # phase A: x-y tolerance before descending beside the bar
 INNER_CLEAR = 0.045  # phase B: closed fingers (<= 2.7 cm from the TCP along the normal) clear of the panel
 DESCEND_NEAR = 0.05  # phase B: x-y distance to the push point under which the hand may go down
 ENGAGED = 0.08  # x-y distance to the current contact point under which a lowered hand counts as engaged
-
-
-def _rotate(p: tuple[float, float], angle: torch.Tensor) -> torch.Tensor:
-    """Door coordinates ``p`` rotated by ``angle`` about the hinge: world x-y offset ``[..., 2]``."""
-    c, s = torch.cos(angle), torch.sin(angle)
-    return torch.stack([p[0] * c - p[1] * s, p[0] * s + p[1] * c], dim=-1)
 
 
 def door_angle(handle: torch.Tensor, goal: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -87,10 +74,10 @@ def policy(obs: torch.Tensor) -> torch.Tensor:
     handle_z = handle[..., 2]
 
     # phase A: pull the bar with the far finger
-    hook_now = hinge + _rotate(HOOK, theta)
-    hook_now = torch.stack([hook_now[..., 0], hook_now[..., 1] - FINGER_Y], dim=-1)
-    hook_lead = hinge + _rotate(HOOK, theta - LEAD)
-    hook_lead = torch.stack([hook_lead[..., 0], hook_lead[..., 1] - FINGER_Y], dim=-1)
+    hook_now = door_point(hinge, theta, HOOK)
+    hook_now = torch.stack([hook_now[..., 0], hook_now[..., 1] - HOOK_TCP_Y], dim=-1)
+    hook_lead = door_point(hinge, theta - LEAD, HOOK)
+    hook_lead = torch.stack([hook_lead[..., 0], hook_lead[..., 1] - HOOK_TCP_Y], dim=-1)
     near_a = (hand[..., :2] - hook_now).norm(dim=-1)
     engaged_a = (near_a <= ENGAGED) & (hand[..., 2] <= handle_z + 0.03)
     target_a = _approach(hand, hook_now, handle_z, ABOVE_BAR_Z, near_a <= ALIGNED, engaged_a,
@@ -98,8 +85,8 @@ def policy(obs: torch.Tensor) -> torch.Tensor:
 
     # phase B: push the panel's inner face; the hand may go down as soon as the closed fingers are clear of the
     # panel's inner face (its distance from the panel plane, along the panel normal, exceeds INNER_CLEAR)
-    push_now = hinge + _rotate(PUSH, theta)
-    push_lead = hinge + _rotate((PUSH[0], PUSH_INTO), torch.clamp(theta - LEAD, min=FINAL_ANGLE))
+    push_now = door_point(hinge, theta, PUSH)
+    push_lead = door_point(hinge, torch.clamp(theta - LEAD, min=FINAL_ANGLE), (PUSH[0], PUSH_INTO))
     rel = hand[..., :2] - hinge
     normal_offset = -rel[..., 0] * torch.sin(theta) + rel[..., 1] * torch.cos(theta)
     near_b = (hand[..., :2] - push_now).norm(dim=-1)

@@ -7,13 +7,16 @@ where MTBench's asset puts a body; Meta-World observes the mesh's centre instead
 with the site ``handle_point``. The door turns on its hinge alone (no contacts with the safe or the retaining wall,
 stiff limit).
 
-This private module (task discovery ignores modules whose name starts with ``_``) holds only the scene constants
-and edit; each task file states its own reward.
+This private module (task discovery ignores modules whose name starts with ``_``) holds only the scene constants,
+the edit and the door coordinates (x along the panel from the hinge, y across it: negative on the handle's outer
+side) of the points where the Panda works the door (door_open's scripted controller and v2 reward); each task file
+states its own reward.
 """
 
 from __future__ import annotations
 
 import mujoco
+import torch
 
 from ..scene import guide_by_joint
 
@@ -22,6 +25,22 @@ DOOR_BODY = "door_link"
 DOOR_JOINT = "doorjoint"
 HANDLE_SITE = "handle_point"
 HANDLE_ON_DOOR = (0.325, -0.062, 0.0)  # MTBench's ``handle`` body in the door frame
+# door_open, pulling: the open gripper's far (+y) finger centre at HOOK, 1.35 cm behind the bar (back face at y
+# -0.097) with the palm, which reaches 10 cm beyond the TCP along y, 1.5 cm in front of the panel (outer face at
+# -0.01); the TCP is HOOK_TCP_Y towards the robot (world -y) of that finger (open gripper: finger centre to TCP)
+HOOK = (0.40, -0.071)
+HOOK_TCP_Y = 0.054
+# door_open, pushing: the TCP at PUSH on the panel's inner side (inner face at y = +0.01), PUSH_Z above the table:
+# the fingertips overlap the panel's top by 3 cm, the palm (from TCP + 3.7 cm) stays above it (0.273)
+PUSH = (0.33, 0.055)
+PUSH_Z = 0.25
+
+
+def door_point(hinge: torch.Tensor, theta: torch.Tensor, p: tuple[float, float]) -> torch.Tensor:
+    """World x-y ``[..., 2]`` of the door-coordinates point ``p`` with the door at hinge angle ``theta`` (the
+    ``doorjoint`` position: 0 closed, negative open) about the hinge's x-y ``hinge[..., :2]``."""
+    c, s = torch.cos(theta), torch.sin(theta)
+    return hinge[..., :2] + torch.stack([p[0] * c - p[1] * s, p[0] * s + p[1] * c], dim=-1)
 
 
 def edit_door_scene(spec: mujoco.MjSpec) -> None:

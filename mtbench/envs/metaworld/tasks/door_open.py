@@ -45,19 +45,14 @@ import torch
 from ..reward_utils import hamacher_product, mtbench_gripper_openness, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
-from ._door import DOOR_BODY, DOOR_JOINT, HANDLE_SITE, SAFE_BODY, edit_door_scene
+from ._door import (DOOR_BODY, DOOR_JOINT, HANDLE_SITE, HOOK, HOOK_TCP_Y, PUSH, PUSH_Z, SAFE_BODY, door_point,
+                    edit_door_scene)
 
 GOAL_OFFSET = (-0.3, -0.45, 0.0)  # goal relative to the safe (MTBench's target_pos)
 REACH_OFFSET = (0.075, -0.15, 0.0)  # MTBench's ``door`` point relative to the handle point
 FUNNEL_RADIUS = 0.12
 SUCCESS_TOL = 0.08
-# v2 reach targets, as the scripted controller's (policies/door_open.py), in door coordinates about the hinge (x along
-# the panel, y across it: negative on the handle's outer side)
-V2_SWITCH_ANGLE = 0.6  # rad: below it the hand should hook the bar, from it push the panel's inner face
-V2_HOOK = (0.40, -0.071)  # the open gripper's far finger between the bar and the panel ...
-V2_FINGER_Y = 0.054  # ... with the TCP this far towards the robot (world -y)
-V2_PUSH = (0.33, 0.055)  # TCP beside the panel's inner face near its free edge ...
-V2_PUSH_DZ = 0.10  # ... above the hinge centre (TCP z 0.25; the palm stays above the panel's top)
+V2_SWITCH_ANGLE = 0.6  # rad: below it the hand should hook the bar (``_door.HOOK``), from it push the panel (``PUSH``)
 V2_REACH_RADIUS = 0.05
 V2_REACH_MARGIN = 0.3  # about the hand's start -> hook and hook -> push point distances
 V2_OPEN_ANGLE = 1.5  # rad: ``opened`` is 1 from here (success needs 1.49)
@@ -82,18 +77,12 @@ def door_open_reward(tcp: torch.Tensor, handle: torch.Tensor, theta: torch.Tenso
     return 2.0 * hamacher_product(ready_to_open, tcp_opened) + 8.0 * opened
 
 
-def _door_point(hinge: torch.Tensor, theta: torch.Tensor, p: tuple[float, float]) -> torch.Tensor:
-    """World x-y ``[n, 2]`` of the door-coordinates point ``p`` with the door at hinge angle ``theta``."""
-    c, s = torch.cos(theta), torch.sin(theta)
-    return hinge[..., :2] + torch.stack([p[0] * c - p[1] * s, p[0] * s + p[1] * c], dim=-1)
-
-
 def door_open_reward_v2(tcp: torch.Tensor, hinge: torch.Tensor, theta: torch.Tensor) -> torch.Tensor:
     """``reward_version="v2"`` dense reward ``[n]`` (0..8), with ``hinge`` the door body's origin (the hinge at the
     handle's height) and ``a = −theta`` the door angle (0 closed)::
 
         hook   = hinge + R(theta)·(0.40, −0.071) − (0, 0.054, 0)       # TCP of the open gripper round the bar
-        push   = hinge + R(theta)·(0.33, 0.055) + (0, 0, 0.10)          # TCP beside the panel's inner face
+        push   = (hinge + R(theta)·(0.33, 0.055), z 0.25)                 # TCP beside the panel's inner face
         reach(p) = tolerance(‖tcp − p‖, (0, .05), margin=.3, long_tail)
         opened = clamp(a / 1.5, 0, 1)
         r = reach(hook) + 6·opened              while a < 0.6
@@ -111,9 +100,9 @@ def door_open_reward_v2(tcp: torch.Tensor, hinge: torch.Tensor, theta: torch.Ten
     than 0.05.
     """
     z = hinge[..., 2:3]
-    hook_xy = _door_point(hinge, theta, V2_HOOK)
-    hook = torch.cat([hook_xy[..., :1], hook_xy[..., 1:] - V2_FINGER_Y, z], dim=-1)
-    push = torch.cat([_door_point(hinge, theta, V2_PUSH), z + V2_PUSH_DZ], dim=-1)
+    hook_xy = door_point(hinge, theta, HOOK)
+    hook = torch.cat([hook_xy[..., :1], hook_xy[..., 1:] - HOOK_TCP_Y, z], dim=-1)
+    push = torch.cat([door_point(hinge, theta, PUSH), torch.full_like(z, PUSH_Z)], dim=-1)
 
     def reach(target: torch.Tensor) -> torch.Tensor:
         return tolerance((tcp - target).norm(dim=-1), bounds=(0.0, V2_REACH_RADIUS), margin=V2_REACH_MARGIN,
