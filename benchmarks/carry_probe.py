@@ -7,7 +7,8 @@ stays held). If the object then reaches the goal, the way from where the policy 
 the env's reward along it is what the policy forwent; if not, the scene blocks the straight way.
 
 Prints, per probed task: the object's distance to its goal at chosen steps, the mean env reward per step over the
-last 10 policy steps and over the steered steps, and the episode success.
+last 10 policy steps and over the steered steps, the episode success, and the object's height and the hand's
+distance to it at the policy's last step. With ``--steer-from 149`` it is a trace of the policy alone.
 
     python benchmarks/carry_probe.py --checkpoint runs/mt50/checkpoints/final.pt --worlds-per-task 2 \\
         --tasks push_wall pick_place_wall shelf_place stick_pull basketball peg_insert_side pick_place
@@ -46,6 +47,8 @@ def probe(checkpoint: str, tasks: Sequence[str], worlds_per_task: int, steer_fro
         torch.manual_seed(seed)
         td = env.reset()
         distance: dict[str, list[torch.Tensor]] = {t: [] for t in tasks}
+        height: dict[str, list[torch.Tensor]] = {t: [] for t in tasks}
+        hand: dict[str, list[torch.Tensor]] = {t: [] for t in tasks}
         reward: dict[str, list[torch.Tensor]] = {t: [] for t in tasks}
         for step in range(env.max_episode_steps):
             action = policy(td, True)
@@ -58,11 +61,14 @@ def probe(checkpoint: str, tasks: Sequence[str], worlds_per_task: int, steer_fro
             for t, i in index.items():
                 s = states[t]
                 distance[t].append((s.obj_pos - s.goal).norm(dim=-1).clone())
+                height[t].append(s.obj_pos[:, 2].clone())
+                hand[t].append((s.tcp - s.obj_pos).norm(dim=-1).clone())
                 reward[t].append(out["next", "reward"][env.slices[i]].reshape(-1).clone())
         stats = env.pop_episode_stats()
     finally:
         env.close()
-    return {t: {"distance": torch.stack(distance[t]).cpu(), "reward": torch.stack(reward[t]).cpu(),
+    return {t: {"distance": torch.stack(distance[t]).cpu(), "height": torch.stack(height[t]).cpu(),
+                "hand": torch.stack(hand[t]).cpu(), "reward": torch.stack(reward[t]).cpu(),
                 "successes": int(stats["success"][i]), "episodes": int(stats["episodes"][i])}
             for t, i in index.items()}
 
@@ -99,9 +105,15 @@ def main(argv: Sequence[str] | None = None) -> None:
     for t, r in result.items():
         d = r["distance"].mean(-1)
         before = r["reward"][max(0, k - 10):k].mean().item()
-        after = r["reward"][k:last + 1].mean().item()
-        print(f"| {t} | {' | '.join(f'{d[m]:.3f}' for m in marks)} | {before:.2f} | {after:.2f} | "
+        after = f"{r['reward'][k:last + 1].mean().item():.2f}" if k <= last else "-"  # no steered step counted
+        print(f"| {t} | {' | '.join(f'{d[m]:.3f}' for m in marks)} | {before:.2f} | {after} | "
               f"{r['successes']}/{r['episodes']} |")
+    stop = max(0, min(k, last + 1) - 1)
+    print(f"\nat step {stop}, the policy's last step before the steering (m, mean over {args.worlds_per_task} worlds)")
+    print("| task | object height | hand to object |")
+    print("|---|---:|---:|")
+    for t, r in result.items():
+        print(f"| {t} | {r['height'][stop].mean():.3f} | {r['hand'][stop].mean():.3f} |")
 
 
 if __name__ == "__main__":

@@ -37,7 +37,9 @@ def test_probe_returns_per_step_distances_and_rewards(checkpoint: Path) -> None:
     b = carry_probe.probe(str(checkpoint), ["pick_place"], worlds_per_task=2, steer_from=10, gain=20.0, seed=1)
     r = a["pick_place"]
     assert r["distance"].shape == (STEPS, 2) and r["reward"].shape == (STEPS, 2) and r["episodes"] == 2
-    assert (r["distance"] >= 0).all() and torch.isfinite(r["reward"]).all()
+    assert r["height"].shape == (STEPS, 2) and r["hand"].shape == (STEPS, 2)
+    assert (r["distance"] >= 0).all() and (r["hand"] >= 0).all() and torch.isfinite(r["reward"]).all()
+    assert (r["height"] > 0.0).all() and (r["height"] < 0.5).all()  # pick_place's puck: on or above the table
     torch.testing.assert_close(a["pick_place"]["reward"], b["pick_place"]["reward"])  # same seed, same probe
     # the policy's own steps are the same with any later steering; the steered steps differ
     c = carry_probe.probe(str(checkpoint), ["pick_place"], worlds_per_task=2, steer_from=20, gain=20.0, seed=1)
