@@ -73,9 +73,10 @@ def assembly_reward_v2(action: torch.Tensor, handle: torch.Tensor, ring: torch.T
     body's velocity), the held nut's speed towards the ring's next waypoint (``progress_speed``).
 
     Why (since ``v2-2026-11-28f``): the paper-era reward pays the ring's position through a funnel of target
-    heights around the peg and scales everything by the nut's tilt; the MT50-rand policies of revisions c and e
-    grasp the handle, lift the nut 14 cm and hold it still 16 cm from the target (assembly 25-39% or 0% in four
-    runs), while disassemble, the same grasp in this form, is at 99-100%.
+    heights around the peg, however the nut is held, and scales everything by the nut's tilt; the MT50-rand
+    policies lift the nut about 14 cm and hold it still 14-16 cm from the target (assembly 25-39% or 0% in four
+    runs; the revision-e seed-42 policy holds it by the ring, 13 cm from the handle), while disassemble, the handle
+    grasp in this form, is at 99-100%. Here only the handle grasp (the scripted controller's) counts as held.
     """
     points, stage = assembly_path(ring, goal)
     carry = polyline_distance(ring, points, stage)
