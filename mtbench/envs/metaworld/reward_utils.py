@@ -38,6 +38,7 @@ __all__ = [
     "gripper_caging_reward",
     "polyline_distance",
     "path_direction",
+    "path_speed",
     "progress",
     "reach_progress_reward",
     "hamacher_product",
@@ -491,6 +492,12 @@ def path_direction(p: Tensor, points: list[Tensor], stage: Tensor) -> Tensor:
     index = stage.long().clamp(0, len(points) - 1)[:, None, None].expand(-1, 1, 3)
     towards = stacked.gather(1, index).squeeze(1) - p
     return towards / torch.linalg.vector_norm(towards, dim=-1, keepdim=True).clamp_min(1e-6)
+
+
+def path_speed(velocity: Tensor | None, p: Tensor, points: list[Tensor], stage: Tensor) -> Tensor | None:
+    """Speed ``[N]`` (m/s) of a point at ``p`` moving with ``velocity`` ``[N, 3]`` towards its next waypoint
+    (:func:`path_direction`): :func:`grasp_place_reward`'s ``progress_speed``; None without a velocity."""
+    return None if velocity is None else (velocity * path_direction(p, points, stage)).sum(-1)
 
 
 def grasp_place_reward(action: Tensor, tcp: Tensor, left_pad: Tensor, right_pad: Tensor, gripper_open: Tensor,

@@ -181,6 +181,12 @@ class MetaWorldTask:
         q.copy_(torch.where(mask[:, None], new, q))
 
     @staticmethod
+    def free_body_velocity(sim: WarpSim, dofadr: int) -> torch.Tensor:
+        """Linear velocity ``[n, 3]`` (m/s, world frame) of a free-joint body's origin: its joint's first three
+        velocity components, from the joint's velocity address ``dofadr``."""
+        return sim.qvel[:, dofadr:dofadr + 3]
+
+    @staticmethod
     def set_body_pos(sim: WarpSim, body: int, pos: torch.Tensor, mask: torch.Tensor) -> None:
         """Move a world-fixed body, e.g. a drawer cabinet, per world (its fixed geoms move with it)."""
         sim.set_body_pos(body, pos, mask)
@@ -281,7 +287,7 @@ class FreeObjectTask(MetaWorldTask):
     def object_velocity(self, s: TaskState) -> torch.Tensor:
         """Linear velocity ``[n, 3]`` (m/s, world frame) of the object body's origin (its free joint's first three
         velocity components)."""
-        return s.sim.qvel[:, self.obj_dof:self.obj_dof + 3]
+        return self.free_body_velocity(s.sim, self.obj_dof)
 
     def sample(self, n: int, generator: torch.Generator, device: torch.device) -> torch.Tensor:
         vec = super().sample(n, generator, device)

@@ -22,7 +22,7 @@ import math
 
 import torch
 
-from ..tasks._door import HOOK, HOOK_TCP_Y, PUSH, PUSH_Z, door_point
+from ..tasks._door import PUSH, PUSH_Z, door_point, hook_tcp
 from ._common import action, move, parse
 
 HINGE_FROM_GOAL = (0.115, 0.35)  # hinge (x, y) = goal + this
@@ -74,10 +74,8 @@ def policy(obs: torch.Tensor) -> torch.Tensor:
     handle_z = handle[..., 2]
 
     # phase A: pull the bar with the far finger
-    hook_now = door_point(hinge, theta, HOOK)
-    hook_now = torch.stack([hook_now[..., 0], hook_now[..., 1] - HOOK_TCP_Y], dim=-1)
-    hook_lead = door_point(hinge, theta - LEAD, HOOK)
-    hook_lead = torch.stack([hook_lead[..., 0], hook_lead[..., 1] - HOOK_TCP_Y], dim=-1)
+    hook_now = hook_tcp(hinge, theta)
+    hook_lead = hook_tcp(hinge, theta - LEAD)
     near_a = (hand[..., :2] - hook_now).norm(dim=-1)
     engaged_a = (near_a <= ENGAGED) & (hand[..., 2] <= handle_z + 0.03)
     target_a = _approach(hand, hook_now, handle_z, ABOVE_BAR_Z, near_a <= ALIGNED, engaged_a,

@@ -43,6 +43,13 @@ def door_point(hinge: torch.Tensor, theta: torch.Tensor, p: tuple[float, float])
     return hinge[..., :2] + torch.stack([p[0] * c - p[1] * s, p[0] * s + p[1] * c], dim=-1)
 
 
+def hook_tcp(hinge: torch.Tensor, theta: torch.Tensor) -> torch.Tensor:
+    """World x-y ``[..., 2]`` of the TCP whose open gripper hooks the bar (far finger at :data:`HOOK`) with the door
+    at hinge angle ``theta``."""
+    finger = door_point(hinge, theta, HOOK)
+    return torch.stack([finger[..., 0], finger[..., 1] - HOOK_TCP_Y], dim=-1)
+
+
 def edit_door_scene(spec: mujoco.MjSpec) -> None:
     """The door turns on its hinge alone; the site ``handle_point`` marks MTBench's handle point."""
     guide_by_joint(spec, DOOR_BODY, DOOR_JOINT, ("doorlockB", "RetainingWall"))

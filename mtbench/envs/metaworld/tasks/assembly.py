@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import (grasp_place_reward, gripper_caging_reward, path_direction, polyline_distance,
+from ..reward_utils import (grasp_place_reward, gripper_caging_reward, path_speed, polyline_distance,
                             tolerance)
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, TaskState, offset
@@ -81,7 +81,7 @@ def assembly_reward_v2(action: torch.Tensor, handle: torch.Tensor, ring: torch.T
     points, stage = assembly_path(ring, goal)
     carry = polyline_distance(ring, points, stage)
     carry0 = polyline_distance(ring_init, points, torch.zeros_like(stage))
-    speed = None if nut_vel is None else (nut_vel * path_direction(ring, points, stage)).sum(-1)
+    speed = path_speed(nut_vel, ring, points, stage)
     handle_init = offset(ring_init, HANDLE_OFFSET, 0.0, 0.0)
     return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, handle, handle_init, init_tcp,
                               ring[:, 2] - ring_init[:, 2], carry, carry0,
@@ -154,7 +154,7 @@ class Assembly(NutSceneMixin, MetaWorldTask):
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return assembly_reward_v2(action, s.obj_pos, self.ring_center(s), s.tcp, s.left_pad, s.right_pad,
                                   s.gripper_open, s.goal, s.buffers["ring_init"], s.init_tcp,
-                                  s.sim.qvel[:, self.nut_dof:self.nut_dof + 3])
+                                  self.free_body_velocity(s.sim, self.nut_dof))
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return assembly_success(self.ring_center(s), s.goal)

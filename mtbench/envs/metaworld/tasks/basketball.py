@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, path_direction,
+from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, path_speed,
                             polyline_distance, tolerance)
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState, offset
@@ -74,7 +74,7 @@ def basketball_reward_v2(action: torch.Tensor, ball: torch.Tensor, tcp: torch.Te
     points, stage = basketball_path(ball, goal)
     dist = polyline_distance(ball, points, stage)
     dist0 = polyline_distance(ball_init, points, torch.zeros_like(stage))
-    speed = None if ball_vel is None else (ball_vel * path_direction(ball, points, stage)).sum(-1)
+    speed = path_speed(ball_vel, ball, points, stage)
     return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, ball, ball_init, init_tcp,
                               ball[:, 2] - ball_init[:, 2], dist, dist0,
                               obj_radius=0.025, pad_success_thresh=0.06, object_reach_radius=0.01, xz_thresh=0.005,

@@ -45,8 +45,8 @@ import torch
 from ..reward_utils import hamacher_product, mtbench_gripper_openness, tolerance
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
-from ._door import (DOOR_BODY, DOOR_JOINT, HANDLE_SITE, HOOK, HOOK_TCP_Y, PUSH, PUSH_Z, SAFE_BODY, door_point,
-                    edit_door_scene)
+from ._door import (DOOR_BODY, DOOR_JOINT, HANDLE_SITE, PUSH, PUSH_Z, SAFE_BODY, door_point, edit_door_scene,
+                    hook_tcp)
 
 GOAL_OFFSET = (-0.3, -0.45, 0.0)  # goal relative to the safe (MTBench's target_pos)
 REACH_OFFSET = (0.075, -0.15, 0.0)  # MTBench's ``door`` point relative to the handle point
@@ -100,8 +100,7 @@ def door_open_reward_v2(tcp: torch.Tensor, hinge: torch.Tensor, theta: torch.Ten
     than 0.05.
     """
     z = hinge[..., 2:3]
-    hook_xy = door_point(hinge, theta, HOOK)
-    hook = torch.cat([hook_xy[..., :1], hook_xy[..., 1:] - HOOK_TCP_Y, z], dim=-1)
+    hook = torch.cat([hook_tcp(hinge, theta), z], dim=-1)
     push = torch.cat([door_point(hinge, theta, PUSH), torch.full_like(z, PUSH_Z)], dim=-1)
 
     def reach(target: torch.Tensor) -> torch.Tensor:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, path_direction,
+from ..reward_utils import (grasp_place_reward, gripper_caging_reward, hamacher_product, path_speed,
                             polyline_distance, rect_prism_tolerance, tolerance)
 from ..scene import SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
@@ -73,7 +73,7 @@ def peg_insert_side_reward_v2(action: torch.Tensor, obj: torch.Tensor, head: tor
     aligned = ((head[:, 1:] - goal[:, 1:]).abs() < V2_ALIGNED).all(dim=-1) & (head[:, 0] < entry[:, 0] + 0.02)
     carry = polyline_distance(head, [entry, goal], aligned.long())
     carry0 = polyline_distance(head_init, [entry, goal], torch.zeros_like(head[:, 0], dtype=torch.long))
-    speed = None if peg_vel is None else (peg_vel * path_direction(head, [entry, goal], aligned.long())).sum(-1)
+    speed = path_speed(peg_vel, head, [entry, goal], aligned.long())
     grasp_init = offset(peg_init, *GRASP_FROM_BODY)
     return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, grasp_init, init_tcp,
                               obj[:, 2] - grasp_init[:, 2], carry, carry0,
@@ -162,7 +162,7 @@ class PegInsertSide(MetaWorldTask):
     def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return peg_insert_side_reward_v2(action, s.obj_pos, s.sim.site_xpos[:, self.head_site], s.tcp, s.left_pad,
                                          s.right_pad, s.gripper_open, s.goal, s.obj_init_pos, s.buffers["head_init"],
-                                         s.init_tcp, s.sim.qvel[:, self.peg_dof:self.peg_dof + 3])
+                                         s.init_tcp, self.free_body_velocity(s.sim, self.peg_dof))
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return peg_insert_side_success(s.sim.site_xpos[:, self.head_site], s.goal)

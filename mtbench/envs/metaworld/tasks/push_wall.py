@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import grasp_place_reward, gripper_caging_reward, path_direction, polyline_distance, tolerance
+from ..reward_utils import grasp_place_reward, gripper_caging_reward, path_speed, polyline_distance, tolerance
 from ..scene import SceneSpec
 from ..task import FreeObjectTask, TaskState
 from ._wall import MIDPOINT_Y, V2_BEHIND_Y, V2_HOLD_RADIUS, V2_LIFT_Y, scaled_norm, wall_stage
@@ -66,7 +66,7 @@ def push_wall_reward_v2(action: torch.Tensor, obj: torch.Tensor, tcp: torch.Tens
     stage = wall_stage(obj, obj[:, 0] <= V2_IN_LANE)
     carry = polyline_distance(obj, points, stage)
     carry0 = polyline_distance(obj_init_pos, points, torch.zeros_like(obj[:, 0], dtype=torch.long))
-    speed = None if obj_vel is None else (obj_vel * path_direction(obj, points, stage)).sum(-1)
+    speed = path_speed(obj_vel, obj, points, stage)
     return grasp_place_reward(action, tcp, left_pad, right_pad, gripper_open, obj, obj_init_pos, init_tcp,
                               obj[:, 2] - obj_init_pos[:, 2], carry, carry0,
                               obj_radius=0.015, pad_success_thresh=0.05, object_reach_radius=0.01, xz_thresh=0.005,
