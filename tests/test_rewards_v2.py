@@ -17,7 +17,7 @@ from mtbench.envs.metaworld.tasks import (assembly, basketball, box_close, dial_
                                           shelf_place)
 
 V2_TASKS = {"assembly", "basketball", "box_close", "dial_turn", "disassemble", "door_close", "door_open", "faucet_close",
-            "peg_insert_side", "pick_place_wall", "push_wall", "shelf_place", "stick_push"}
+            "lever_pull", "peg_insert_side", "pick_place_wall", "push_wall", "shelf_place", "stick_push"}
 GRIP = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
 OPEN = torch.tensor([[0.0, 0.0, 0.0, -1.0]])
 
@@ -447,7 +447,7 @@ def test_grasp_place_tasks_in_the_env() -> None:
     tasks = ["assembly", "basketball", "box_close", "disassemble", "peg_insert_side", "pick_place_wall", "push_wall",
              "shelf_place"]
     env = make_env(tasks, num_envs=[2] * len(tasks), device="cpu", seed=0, reward_version="v2")
-    assert env.reward_revision == "v2-2026-11-28f"
+    assert env.reward_revision == "v2-2026-11-28g"
     td = env.reset()
     g = torch.Generator().manual_seed(0)
     for _ in range(3):
@@ -579,3 +579,40 @@ def test_progress_speed_of_basketball_and_peg_insert_side() -> None:
     paid = torch.stack(paid)
     assert paid.abs().max() <= 1.0 + 1e-5
     assert (paid.amax(0) > 0.3).all()
+
+
+def test_lever_pull_v2() -> None:
+    """Reaching under the ball pays 2 before the lever moves (the paper-era reward: 0.06 at the hand's start, 0.13
+    under the ball), each radian lifted pays the same up to the success angle (8 there and beyond), and the reach term
+    is kept while the lever rises."""
+    from mtbench.envs.metaworld.tasks import lever_pull
+
+    hinge = p(0.12, 0.75, 0.25)
+    goal = hinge + p(0.0, 0.0, 0.2)
+    init_tcp = p(0.0, 0.4, 0.2)
+
+    def ball(lift: float) -> torch.Tensor:
+        return hinge + 0.2 * torch.tensor([[0.0, -math.cos(lift), math.sin(lift)]])
+
+    def v2(tcp: torch.Tensor, lift: float) -> torch.Tensor:
+        return lever_pull.lever_pull_reward_v2(tcp, ball(lift), ball(0.0), init_tcp, torch.tensor([-lift]))
+
+    def under(lift: float) -> torch.Tensor:
+        return ball(lift) - p(0.0, 0.0, 0.07)
+
+    close(v2(init_tcp, 0.0), 0.2)  # long tail: 0.1 at the margin, times 2
+    close(v2(under(0.0), 0.0), 2.0)
+    assert 0.2 < v2(0.5 * (init_tcp + under(0.0)), 0.0).item() < 2.0
+    success_angle = math.pi / 2 - lever_pull.SUCCESS_TOL
+    half = 0.5 * success_angle
+    close(v2(init_tcp, half), 2 * 0.5 + 6 * 0.5)  # hand away: max(reach, lift) = lift
+    close(v2(under(half), half), 2.0 + 3.0)
+    close(v2(init_tcp, success_angle), 8.0)
+    close(v2(init_tcp, math.pi / 2), 8.0)  # at the hinge limit: capped
+    paper = [lever_pull.lever_pull_reward(t, ball(a), goal, ball(0.0), init_tcp).item()
+             for t, a in ((init_tcp, 0.0), (under(0.0), 0.0), (under(0.3), 0.3))]
+    assert paper[0] == pytest.approx(0.063, abs=1e-3) and paper[1] == pytest.approx(0.131, abs=1e-3)
+    assert paper[2] < 0.2  # lifted by 17 degrees: still under 0.2 in the paper-era reward
+    # success: the same rule in both versions
+    assert lever_pull.lever_pull_success(torch.tensor([-success_angle - 1e-4, -success_angle + 1e-2])).tolist() == [
+        True, False]

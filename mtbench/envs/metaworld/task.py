@@ -31,7 +31,7 @@ HAND_HIGH = (0.525, 1.025, 0.7)
 # (``reward_v2``, ``success_reward_v2``): rewards of our design for the tasks that MT-PPO leaves at ~0% with the
 # paper-era rewards (docs/metaworld.md, "reward_version v2"; docs/results/mt50_rand_ppo.md).
 REWARD_VERSIONS: tuple[str, ...] = ("paper", "v2")
-REWARD_REVISIONS: dict[str, str] = {"paper": "paper", "v2": "v2-2026-11-28f"}
+REWARD_REVISIONS: dict[str, str] = {"paper": "paper", "v2": "v2-2026-11-28g"}
 """The definition each reward version has in this code, recorded in logs and checkpoints (a run resumes only into
 the same revision). ``v2`` revisions: ``v2-2026-11-25``, staged reach/grip/lift/carry rewards for the grasp-and-carry
 tasks (the first MT50-rand v2 run); ``v2-2026-11-28``, pick_place's paper-era form with each task's grasp point and
@@ -45,7 +45,8 @@ follows the door (the bar, then the panel's inner face) with linear pay for the 
 faucet_close's hand kept at the handle (``tasks/faucet_close.py``); ``v2-2026-11-28f``, the same plus basketball's
 carry along a path that rises in front of the hoop, basketball and peg_insert_side paying the held object's
 speed along its path, shelf_place's path turning in at its front point, and assembly in the grasp-and-carry form
-(``tasks/assembly.py``)."""
+(``tasks/assembly.py``); ``v2-2026-11-28g``, the same plus lever_pull's reach (under the ball) and linear lifting
+reward (``tasks/lever_pull.py``)."""
 
 Reward = Callable[["TaskState", torch.Tensor], torch.Tensor]
 

@@ -8,7 +8,7 @@ import math
 import mujoco
 import torch
 
-from ..reward_utils import hamacher_product, tolerance
+from ..reward_utils import hamacher_product, reach_progress_reward, tolerance
 from ..scene import STIFF_LIMIT_SOLIMP, STIFF_LIMIT_SOLREF, SceneSpec
 from ..task import MetaWorldTask, Objects, TaskState, offset
 
@@ -52,6 +52,31 @@ def lever_pull_reward(tcp: torch.Tensor, lever: torch.Tensor, goal: torch.Tensor
     return hamacher_product(ready_to_lift, in_place)
 
 
+def lever_pull_reward_v2(tcp: torch.Tensor, lever: torch.Tensor, lever_init: torch.Tensor, init_tcp: torch.Tensor,
+                         hinge_angle: torch.Tensor) -> torch.Tensor:
+    """``reward_version="v2"`` dense reward ``[n]`` (0..8), since ``v2-2026-11-28g``::
+
+        reach = tol(‖(tcp + (0, 0, .07) − lever)·(4, 1, 4)‖, (0, .02),
+                    margin max(‖(tcp_init + (0, 0, .07) − lever_init)·(4, 1, 4)‖ − .02, .05), long_tail)
+        lift  = progress(π/2 + angle, π/2, π/24)   # linear in the angle: 0 at rest, 1 at the success angle
+        r = 2·max(reach, lift) + 6·lift
+
+    The paper-era reach target (the hand under the ball) and the angle of the success rule, composed as
+    dial_turn's and door_close's v2 rewards (:func:`~..reward_utils.reach_progress_reward`). Why: the paper-era
+    reward is the Hamacher product of reaching with a long-tail ``in_place`` that is ~0.1 until the lever moves, so
+    before the lever moves it pays 0.06 per step at the hand's start and 0.13 with the hand under the ball, and a
+    lever lifted by 17 degrees 0.19: reaching and starting the lift are barely paid. One of six MT50-rand runs (revision
+    ``v2-2026-11-28f``, seed 1) never found the lever: a return of ~17 per episode from ~20 M frames to 200 M, the
+    hand 13.5 cm from the ball, 0% success (99-100% in four of the other five runs;
+    docs/results/mt50_rand_ppo.md).
+    """
+    shoulder_to_lever = scaled_norm(offset(tcp, *SHOULDER_OFFSET) - lever, SHOULDER_SCALE)
+    shoulder_to_lever_init = scaled_norm(offset(init_tcp, *SHOULDER_OFFSET) - lever_init, SHOULDER_SCALE)
+    to_vertical = math.pi / 2.0 + hinge_angle  # the angle still to lift (the hinge turns negative to lift)
+    return reach_progress_reward(shoulder_to_lever, shoulder_to_lever_init, READY_RADIUS, to_vertical,
+                                 torch.full_like(to_vertical, math.pi / 2.0), SUCCESS_TOL)
+
+
 def lever_pull_success(hinge_angle: torch.Tensor) -> torch.Tensor:
     """MTBench: ``|−angle − π/2| ≤ π/24`` (``[n]`` bool; ``angle`` in [-1.57, 0], -π/2 = vertical)."""
     return (-hinge_angle - math.pi / 2.0).abs() <= SUCCESS_TOL
@@ -69,7 +94,8 @@ class LeverPull(MetaWorldTask):
       ball with the lever vertical. ``obj_init_pos`` = the base position (MTBench); the ball's position at reset
       (MTBench's ``lever_pos_init``) is recorded in the ``lever_init`` buffer.
     * Observation: object 1 = the ``leverStart`` site (ball centre) with the lever's orientation.
-    * Dense reward: :func:`lever_pull_reward` (``dense_scale`` 0.01). MTBench's offset (0, 0, .07) and scale (1, 4, 4)
+    * Dense reward: :func:`lever_pull_reward` (``dense_scale`` 0.01); ``reward_version="v2"``:
+      :func:`lever_pull_reward_v2` (reach under the ball, then linear pay per radian lifted). MTBench's offset (0, 0, .07) and scale (1, 4, 4)
       in its frame are (0, 0, 0.07) and (4, 1, 4) here (Meta-World: offset (0, 0.055, 0.07), same scale).
     * Success (MTBench): hinge within 7.5 degrees of vertical (``angle <= -1.4399``).
     * Differences: MTBench captured ``lever_pos_init`` once, at the first observation of the run, and kept it for
@@ -117,6 +143,10 @@ class LeverPull(MetaWorldTask):
 
     def reward(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return lever_pull_reward(s.tcp, s.obj_pos, s.goal, s.buffers["lever_init"], s.init_tcp)
+
+    def reward_v2(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
+        return lever_pull_reward_v2(s.tcp, s.obj_pos, s.buffers["lever_init"], s.init_tcp,
+                                    s.sim.qpos[:, self.hinge_qpos])
 
     def success(self, s: TaskState, action: torch.Tensor) -> torch.Tensor:
         return lever_pull_success(s.sim.qpos[:, self.hinge_qpos])
