@@ -65,8 +65,8 @@ def lever_pull_reward_v2(tcp: torch.Tensor, lever: torch.Tensor, lever_init: tor
     dial_turn's and door_close's v2 rewards (:func:`~..reward_utils.reach_progress_reward`). Why: the paper-era
     reward is the Hamacher product of reaching with a long-tail ``in_place`` that is ~0.1 until the lever moves, so
     before the lever moves it pays 0.06 per step at the hand's start and 0.13 with the hand under the ball, and a
-    lever lifted by 17 degrees 0.19: reaching and starting the lift are barely paid. One of six MT50-rand runs (revision
-    ``v2-2026-11-28f``, seed 1) never found the lever: a return of ~17 per episode from ~20 M frames to 200 M, the
+    lever lifted by 17 degrees 0.19: reaching and starting the lift are barely paid. One of six MT50-rand runs
+    (revision ``v2-2026-11-28f``, seed 1) never found the lever: a return of ~17 per episode from ~20 M frames to 200 M, the
     hand 13.5 cm from the ball, 0% success (99-100% in four of the other five runs;
     docs/results/mt50_rand_ppo.md).
     """
@@ -95,8 +95,9 @@ class LeverPull(MetaWorldTask):
       (MTBench's ``lever_pos_init``) is recorded in the ``lever_init`` buffer.
     * Observation: object 1 = the ``leverStart`` site (ball centre) with the lever's orientation.
     * Dense reward: :func:`lever_pull_reward` (``dense_scale`` 0.01); ``reward_version="v2"``:
-      :func:`lever_pull_reward_v2` (reach under the ball, then linear pay per radian lifted). MTBench's offset (0, 0, .07) and scale (1, 4, 4)
-      in its frame are (0, 0, 0.07) and (4, 1, 4) here (Meta-World: offset (0, 0.055, 0.07), same scale).
+      :func:`lever_pull_reward_v2` (reach under the ball, then linear pay per radian lifted). MTBench's offset
+      (0, 0, .07) and scale (1, 4, 4) in its frame are (0, 0, 0.07) and (4, 1, 4) here (Meta-World: offset
+      (0, 0.055, 0.07), same scale).
     * Success (MTBench): hinge within 7.5 degrees of vertical (``angle <= -1.4399``).
     * Differences: MTBench captured ``lever_pos_init`` once, at the first observation of the run, and kept it for
       every later episode (stale after a "-rand" reset); it is recorded at every reset here, as Meta-World does.
