@@ -17,7 +17,8 @@ from mtbench.envs.metaworld.tasks import (assembly, basketball, box_close, dial_
                                           shelf_place)
 
 V2_TASKS = {"assembly", "basketball", "box_close", "dial_turn", "disassemble", "door_close", "door_open",
-            "faucet_close", "lever_pull", "peg_insert_side", "pick_place_wall", "push_wall", "shelf_place", "stick_push"}
+            "faucet_close", "lever_pull", "peg_insert_side", "pick_place_wall", "push_wall", "shelf_place",
+            "stick_push"}
 GRIP = torch.tensor([[0.0, 0.0, 0.0, 1.0]])
 OPEN = torch.tensor([[0.0, 0.0, 0.0, -1.0]])
 

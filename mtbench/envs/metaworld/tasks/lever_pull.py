@@ -66,8 +66,8 @@ def lever_pull_reward_v2(tcp: torch.Tensor, lever: torch.Tensor, lever_init: tor
     reward is the Hamacher product of reaching with a long-tail ``in_place`` that is ~0.1 until the lever moves, so
     before the lever moves it pays 0.06 per step at the hand's start and 0.13 with the hand under the ball, and a
     lever lifted by 17 degrees 0.19: reaching and starting the lift are barely paid. One of six MT50-rand runs
-    (revision ``v2-2026-11-28f``, seed 1) never found the lever: a return of ~17 per episode from ~20 M frames to 200 M, the
-    hand 13.5 cm from the ball, 0% success (99-100% in four of the other five runs;
+    (revision ``v2-2026-11-28f``, seed 1) never found the lever: a return of ~17 per episode from ~20 M frames to
+    200 M, the hand 13.5 cm from the ball, 0% success (96-100% in four of the other five runs;
     docs/results/mt50_rand_ppo.md).
     """
     shoulder_to_lever = scaled_norm(offset(tcp, *SHOULDER_OFFSET) - lever, SHOULDER_SCALE)
