@@ -41,6 +41,7 @@ __all__ = [
     "path_speed",
     "progress",
     "reach_progress_reward",
+    "reach_term",
     "hamacher_product",
     "hamacher_product_checked",
     "rect_prism_tolerance",
@@ -451,6 +452,13 @@ def progress(dist: Tensor, dist0: Tensor, radius: float) -> Tensor:
     return ((dist0 - dist) / span).clamp(0.0, 1.0)
 
 
+def reach_term(reach_dist: Tensor, reach_dist0: Tensor, reach_radius: float) -> Tensor:
+    """The v2 reach term ``[N]`` in (0, 1]: ``tolerance(reach_dist, (0, reach_radius), margin=max(reach_dist0 −
+    reach_radius, 0.05), long_tail)``, 1 within ``reach_radius``, 0.1 at the start distance."""
+    return tolerance(reach_dist, bounds=(0.0, reach_radius), margin=(reach_dist0 - reach_radius).clamp_min(0.05),
+                     sigmoid="long_tail")
+
+
 def reach_progress_reward(reach_dist: Tensor, reach_dist0: Tensor, reach_radius: float, dist: Tensor, dist0: Tensor,
                           radius: float) -> Tensor:
     """The v2 reward ``[N]`` (0..8) of a task that reaches a part and then moves it (dial_turn, door_close)::
@@ -462,8 +470,7 @@ def reach_progress_reward(reach_dist: Tensor, reach_dist0: Tensor, reach_radius:
     ``reach_dist``/``reach_dist0``: the TCP's current/initial distance to the part; ``dist``/``dist0``: the part's
     current/initial distance to the goal. Reaching pays up to 2 on its own and every centimetre towards the goal pays
     the same; ``max(reach, done)`` keeps the reach term once the part moves, so that leaving it costs nothing."""
-    reach = tolerance(reach_dist, bounds=(0.0, reach_radius), margin=(reach_dist0 - reach_radius).clamp_min(0.05),
-                      sigmoid="long_tail")
+    reach = reach_term(reach_dist, reach_dist0, reach_radius)
     done = progress(dist, dist0, radius)
     return 2.0 * torch.maximum(reach, done) + 6.0 * done
 

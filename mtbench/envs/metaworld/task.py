@@ -161,6 +161,14 @@ class MetaWorldTask:
     def joint_qposadr(self, name: str) -> int:
         return int(self.model.joint(name).qposadr[0])
 
+    def body_qposadr(self, body: int) -> int:
+        """``qpos`` address of the (first) joint of body ``body``, e.g. a free object's 7 position entries."""
+        return int(self.model.jnt_qposadr[self.model.body_jntadr[body]])
+
+    def body_dofadr(self, body: int) -> int:
+        """``qvel`` address of the (first) joint of body ``body`` (:meth:`free_body_velocity`'s ``dofadr``)."""
+        return int(self.model.jnt_dofadr[self.model.body_jntadr[body]])
+
     def body_id(self, name: str) -> int:
         return int(self.model.body(name).id)
 

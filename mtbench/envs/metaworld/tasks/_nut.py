@@ -44,7 +44,7 @@ class NutSceneMixin:
 
     def bind(self, model) -> None:
         self.nut_body = self.body_id("RoundNut")
-        self.nut_qpos = int(model.jnt_qposadr[model.body_jntadr[self.nut_body]])
+        self.nut_qpos = self.body_qposadr(self.nut_body)
         self.ring_site = self.site_id("RoundNut")
         self.handle_site = self.site_id("RoundNut-8")
         self.peg_body = self.body_id("peg")

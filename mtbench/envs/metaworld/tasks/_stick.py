@@ -46,7 +46,7 @@ class StickSceneMixin:
 
     def bind(self, model) -> None:
         self.stick_body = self.body_id("stick")
-        self.stick_qpos = int(model.jnt_qposadr[model.body_jntadr[self.stick_body]])
+        self.stick_qpos = self.body_qposadr(self.stick_body)
         self.thermos_body = self.body_id("object")
         self.slide_x = self.joint_qposadr("obj_slidex")
         self.slide_y = self.joint_qposadr("obj_slidey")

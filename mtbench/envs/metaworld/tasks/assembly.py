@@ -137,7 +137,7 @@ class Assembly(NutSceneMixin, MetaWorldTask):
 
     def bind(self, model) -> None:
         super().bind(model)
-        self.nut_dof = int(model.jnt_dofadr[model.body_jntadr[self.nut_body]])
+        self.nut_dof = self.body_dofadr(self.nut_body)
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         ring, peg_top = vec[:, :3], vec[:, 3:6]

@@ -126,8 +126,8 @@ class Basketball(FreeObjectTask):
 
     def bind(self, model) -> None:
         self.obj_body = self.body_id(self.OBJ_BODY)
-        self.obj_qpos = int(model.jnt_qposadr[model.body_jntadr[self.obj_body]])
-        self.obj_dof = int(model.jnt_dofadr[model.body_jntadr[self.obj_body]])
+        self.obj_qpos = self.body_qposadr(self.obj_body)
+        self.obj_dof = self.body_dofadr(self.obj_body)
         self.stand_body = self.body_id("basket_goal")
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:

@@ -74,7 +74,7 @@ class BinPicking(FreeObjectTask):
 
     def bind(self, model) -> None:
         self.obj_body = self.body_id("obj")
-        self.obj_qpos = int(model.jnt_qposadr[model.body_jntadr[self.obj_body]])
+        self.obj_qpos = self.body_qposadr(self.obj_body)
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
         self.set_free_body(s.sim, self.obj_qpos, offset(vec[:, :3], 0.0, 0.0, SPAWN_ABOVE), mask)

@@ -135,7 +135,7 @@ class BoxClose(FreeObjectTask):
 
     def bind(self, model) -> None:
         self.obj_body = self.body_id(self.OBJ_BODY)
-        self.obj_qpos = int(model.jnt_qposadr[model.body_jntadr[self.obj_body]])
+        self.obj_qpos = self.body_qposadr(self.obj_body)
         self.top_body = self.body_id("top_link")
         self.box_body = self.body_id("boxbody")
         self.lid_site = self.site_id("lid_point")

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import torch
 
-from ..reward_utils import progress, tolerance
+from ..reward_utils import progress, reach_term, tolerance
 from ..task import MetaWorldTask, TaskState, offset
 from ._faucet import HANDLE_LENGTH, RESET_HIGH, RESET_LOW, SCENE, FaucetSceneMixin
 
@@ -56,9 +56,7 @@ def faucet_close_reward_v2(tcp: torch.Tensor, handle: torch.Tensor, goal: torch.
     a hand at the handle with the handle at the goal is also within the success rule's 7 cm of it).
     """
     start = offset(faucet, *HANDLE_START)
-    reach_dist0 = (init_tcp - start).norm(dim=-1)
-    reach = tolerance((tcp - handle).norm(dim=-1), bounds=(0.0, V2_REACH_RADIUS),
-                      margin=(reach_dist0 - V2_REACH_RADIUS).clamp_min(0.05), sigmoid="long_tail")
+    reach = reach_term((tcp - handle).norm(dim=-1), (init_tcp - start).norm(dim=-1), V2_REACH_RADIUS)
     done = progress((handle - goal).norm(dim=-1), (start - goal).norm(dim=-1), TARGET_RADIUS)
     return 2.0 * reach + 3.0 * done + 3.0 * reach * done
 

@@ -133,8 +133,8 @@ class PegInsertSide(MetaWorldTask):
     def bind(self, model) -> None:
         self.peg_body = self.body_id("peg")
         self.box_body = self.body_id("box")
-        self.peg_qpos = int(model.jnt_qposadr[model.body_jntadr[self.peg_body]])
-        self.peg_dof = int(model.jnt_dofadr[model.body_jntadr[self.peg_body]])
+        self.peg_qpos = self.body_qposadr(self.peg_body)
+        self.peg_dof = self.body_dofadr(self.peg_body)
         self.grasp_site = self.site_id("pegGrasp")
         self.head_site = self.site_id("pegHead")
         self.box_sites = [self.site_id(n) for n in (

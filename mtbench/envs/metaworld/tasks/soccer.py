@@ -84,7 +84,7 @@ class Soccer(FreeObjectTask):
 
     def bind(self, model) -> None:
         self.obj_body = self.body_id(self.OBJ_BODY)
-        self.obj_qpos = int(model.jnt_qposadr[model.body_jntadr[self.obj_body]])
+        self.obj_qpos = self.body_qposadr(self.obj_body)
         self.goal_body = self.body_id("goal_whole")
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:

@@ -97,7 +97,7 @@ class SweepIntoGoal(FreeObjectTask):
 
     def bind(self, model) -> None:
         self.obj_body = self.body_id("obj")
-        self.obj_qpos = int(model.jnt_qposadr[model.body_jntadr[self.obj_body]])
+        self.obj_qpos = self.body_qposadr(self.obj_body)
         self.obj_site = self.site_id("obj")
 
     def reset(self, s: TaskState, vec: torch.Tensor, mask: torch.Tensor) -> None:
