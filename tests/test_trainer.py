@@ -212,6 +212,43 @@ def test_sigterm_between_iterations_checkpoints_and_resume_continues(tmp_path: P
     assert len(resumed.train()) == 3 and resumed.iteration == 5
 
 
+@pytest.mark.skipif(not hasattr(signal, "SIGUSR1"), reason="POSIX signal")
+def test_sigusr1_stops_at_the_end_of_the_iteration_with_no_partial_rollout(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    full_history = build_trainer(_cfg(tmp_path, "max_iterations=4", f"checkpoint.dir={tmp_path / 'full'}"),
+                                 env=_env()).train()
+    stopped = build_trainer(_cfg(tmp_path, "max_iterations=4"), env=_env())
+    stopped.add_hook(StopAt(iteration=1, step=3, signum=signal.SIGUSR1))
+    history = stopped.train()
+    # the rollout of iteration 2 ran to its end and its update was made
+    assert len(history) == 2 and stopped.iteration == 2 and stopped.rollout.steps_done == 0
+    ckpt = tmp_path / "ckpt" / "ckpt_000002.pt"
+    assert ckpt.is_file() and not (tmp_path / "ckpt" / "final.pt").exists()
+    assert load_checkpoint(ckpt)["rollout"]["steps"] is None
+    assert signal.getsignal(signal.SIGUSR1) is signal.SIG_DFL  # handler restored
+    assert "stopping at the end of the current iteration" in capsys.readouterr().err
+    assert_same_metrics(full_history[1], history[1])
+    resumed = build_trainer(_cfg(tmp_path, "max_iterations=4", f"resume={ckpt}"), env=_env())
+    rest = resumed.train()
+    assert len(rest) == 2
+    for a, b in zip(full_history[2:], rest):
+        assert_same_metrics(a, b)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGUSR1"), reason="POSIX signal")
+def test_sigterm_after_sigusr1_stops_after_the_env_step() -> None:
+    from mtbench.trainer import StopRequest
+
+    stop = StopRequest()
+    stop.request(signal.SIGUSR1, at_iteration_end=True)
+    assert stop.requested and not stop()  # the rollout goes on; the loop stops between iterations
+    stop.request(signal.SIGTERM)
+    assert stop()  # now after the current env step
+    stop.request(signal.SIGUSR1, at_iteration_end=True)
+    assert stop()  # a later SIGUSR1 does not postpone a pending stop
+
+
 def test_resume_refuses_a_different_configuration(tmp_path: Path) -> None:
     build_trainer(_cfg(tmp_path, "max_iterations=1"), env=_env()).train()
     with pytest.raises(ValueError, match="loss.horizon"):
