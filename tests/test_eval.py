@@ -83,6 +83,20 @@ def test_main_prints_and_writes_the_per_task_table(checkpoint: Path, tmp_path: P
             report["evaluations"]["deterministic"]["per_task"][task]["return"])
 
 
+def test_long_passes_print_progress_lines(checkpoint: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    import mtbench.evaluation.run as run_module
+
+    monkeypatch.setattr(run_module, "PROGRESS_EVERY_S", 0.0)  # every step counts as long
+    assert main([f"checkpoint={checkpoint}", "episodes=2", "device=cpu", f"out={tmp_path}",
+                 "deterministic=true"]) == 0
+    lines = [line for line in capsys.readouterr().err.splitlines() if ": pass 1/1, step " in line]
+    assert len(lines) == EPISODE_STEPS - 1  # steps 1 .. T-1 (step 0 has nothing done yet)
+    assert lines[0].startswith("eval | deterministic: pass 1/1, step 1/") and "s left" in lines[-1]
+    done = [int(line.split("(")[1].split("%")[0]) for line in lines]
+    assert done == sorted(done) and done[-1] == round(100 * (EPISODE_STEPS - 1) / EPISODE_STEPS)
+
+
 def test_without_sampling_noise_both_evaluations_agree(noiseless_video_report) -> None:
     sampled, deterministic = noiseless_video_report.results
     assert (sampled.mode, deterministic.mode) == ("sampled", "deterministic")

@@ -39,6 +39,10 @@ class EvalReport:
     info: dict[str, Any]
 
 
+#: seconds between two progress lines of a long evaluation pass (stderr)
+PROGRESS_EVERY_S = 15.0
+
+
 def _device(name: str) -> torch.device:
     if name == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
@@ -122,9 +126,18 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
         for deterministic in modes:
             t1 = time.perf_counter()
 
-            def on_step(p: int, t: int, record: bool = deterministic) -> None:
+            shown = [t1]
+            passes = info["passes"]
+
+            def on_step(p: int, t: int, record: bool = deterministic, mode: bool = deterministic) -> None:
                 if record and recorder is not None and p == 0:
                     recorder.capture(t)
+                now = time.perf_counter()
+                if t > 0 and now - shown[0] >= PROGRESS_EVERY_S:  # a line every PROGRESS_EVERY_S on long passes
+                    shown[0] = now
+                    done = (p * steps + t) / (passes * steps)
+                    _log(f"eval | {'deterministic' if mode else 'sampled'}: pass {p + 1}/{passes}, step {t}/{steps} "
+                         f"({100 * done:.0f}%), {now - t1:.0f}s, ~{(now - t1) * (1 - done) / done:.0f}s left")
 
             result = run_episodes(env, policy, episodes=args.episodes, deterministic=deterministic, seed=seed,
                                   on_step=on_step)
