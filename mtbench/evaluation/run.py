@@ -129,14 +129,15 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
             shown = [t1]
             passes = info["passes"]
 
-            def on_step(p: int, t: int, record: bool = deterministic, mode: bool = deterministic) -> None:
+            def on_step(p: int, t: int, record: bool = deterministic,
+                        label: str = "deterministic" if deterministic else "sampled") -> None:
                 if record and recorder is not None and p == 0:
                     recorder.capture(t)
                 now = time.perf_counter()
                 if t > 0 and now - shown[0] >= PROGRESS_EVERY_S:  # a line every PROGRESS_EVERY_S on long passes
                     shown[0] = now
                     done = (p * steps + t) / (passes * steps)
-                    _log(f"eval | {'deterministic' if mode else 'sampled'}: pass {p + 1}/{passes}, step {t}/{steps} "
+                    _log(f"eval | {label}: pass {p + 1}/{passes}, step {t}/{steps} "
                          f"({100 * done:.0f}%), {now - t1:.0f}s, ~{(now - t1) * (1 - done) / done:.0f}s left")
 
             result = run_episodes(env, policy, episodes=args.episodes, deterministic=deterministic, seed=seed,
