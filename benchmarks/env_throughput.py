@@ -20,6 +20,7 @@ place on their tiles, fall, time out and reset as in training. ``--terrain-colli
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 --policy scripted
     python benchmarks/env_throughput.py --env parkour_hard --num-envs 16384
     python benchmarks/env_throughput.py --env mt50_rand --num-envs 24576 --compile-stages --phases
+    python benchmarks/env_throughput.py --env reach,push,pick_place --num-envs 24576 --phases   # a custom task set
 
 ``--compile-stages`` compiles the Meta-World env's torch stages (``compile_stages=True``; the compile time is
 reported as "first step s"); ``--phases`` also times each part of a Meta-World step on its own (synchronised
@@ -149,7 +150,8 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
     if policy == "scripted":
         overrides["random_start_progress"] = False  # every world runs exactly one episode
     t0 = time.perf_counter()
-    env = make_env(env_name, num_envs=num_envs, device=device, seed=0, **overrides)
+    tasks = env_name.split(",") if "," in env_name else env_name  # a comma-separated list: its own task set
+    env = make_env(tasks, num_envs=num_envs, device=device, seed=0, **overrides)
     build_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     td = env.reset()
@@ -190,7 +192,9 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--env", default="mt10_rand")
+    parser.add_argument("--env", default="mt10_rand",
+                        help="a setting (mt10_rand, mt50_rand, parkour_hard, ...), a task or terrain name, or a "
+                             "comma-separated list of Meta-World tasks (worlds split evenly)")
     parser.add_argument("--num-envs", type=int, nargs="+", default=[4096, 24576])
     parser.add_argument("--device", default="cuda" if torch.cuda.is_available() else "cpu")
     parser.add_argument("--steps", type=int, default=300, help="timed steps (random policy; scripted: one episode)")
