@@ -218,6 +218,7 @@ def test_sigusr1_stops_at_the_end_of_the_iteration_with_no_partial_rollout(
 ) -> None:
     full_history = build_trainer(_cfg(tmp_path, "max_iterations=4", f"checkpoint.dir={tmp_path / 'full'}"),
                                  env=_env()).train()
+    before = signal.getsignal(signal.SIGUSR1)
     stopped = build_trainer(_cfg(tmp_path, "max_iterations=4"), env=_env())
     stopped.add_hook(StopAt(iteration=1, step=3, signum=signal.SIGUSR1))
     history = stopped.train()
@@ -226,7 +227,7 @@ def test_sigusr1_stops_at_the_end_of_the_iteration_with_no_partial_rollout(
     ckpt = tmp_path / "ckpt" / "ckpt_000002.pt"
     assert ckpt.is_file() and not (tmp_path / "ckpt" / "final.pt").exists()
     assert load_checkpoint(ckpt)["rollout"]["steps"] is None
-    assert signal.getsignal(signal.SIGUSR1) is signal.SIG_DFL  # handler restored
+    assert signal.getsignal(signal.SIGUSR1) is before  # handler restored
     assert "stopping at the end of the current iteration" in capsys.readouterr().err
     assert_same_metrics(full_history[1], history[1])
     resumed = build_trainer(_cfg(tmp_path, "max_iterations=4", f"resume={ckpt}"), env=_env())
