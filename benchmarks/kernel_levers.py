@@ -16,11 +16,8 @@ Median of ``--repeats`` timed calls after 3 warm-up calls, each closed by a devi
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
-import time
 from pathlib import Path
-from typing import Callable
 
 import torch
 
@@ -32,21 +29,7 @@ from mtbench.modules.gram_schmidt import (  # noqa: E402
     gram_schmidt_vectors,
 )
 from mtbench.modules.task_rows import task_rows  # noqa: E402
-
-
-def _median_ms(fn: Callable[[], object], device: torch.device, repeats: int) -> float:
-    for _ in range(3):
-        fn()
-    times = []
-    for _ in range(repeats):
-        if device.type == "cuda":
-            torch.cuda.synchronize(device)
-        t0 = time.perf_counter()
-        fn()
-        if device.type == "cuda":
-            torch.cuda.synchronize(device)
-        times.append((time.perf_counter() - t0) * 1e3)
-    return statistics.median(times)
+from _timing import median_ms  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -74,8 +57,8 @@ def main(argv: list[str] | None = None) -> None:
         def rows(table: torch.Tensor = table, grad: torch.Tensor = grad) -> object:
             return torch.autograd.grad(task_rows(table, tid), table, grad)
 
-        print(f"task rows [{args.tasks}, {cols}]: table[task_id] {_median_ms(indexed, dev, args.repeats):.3f}, "
-              f"task_rows {_median_ms(rows, dev, args.repeats):.3f}")
+        print(f"task rows [{args.tasks}, {cols}]: table[task_id] {median_ms(indexed, dev, args.repeats, warmup=3):.3f}, "
+              f"task_rows {median_ms(rows, dev, args.repeats, warmup=3):.3f}")
     h = torch.randn(args.experts, args.batch, args.dim, device=dev, requires_grad=True)
     w = torch.randn(args.batch, args.experts, device=dev, requires_grad=True)
     gv = torch.randn(args.batch, args.dim, device=dev)
@@ -105,11 +88,11 @@ def main(argv: list[str] | None = None) -> None:
         for a, b in zip(ref, got, strict=True):
             torch.testing.assert_close(a, b, rtol=1e-3, atol=1e-4)
     line = (f"Gram-Schmidt + mixing [{args.experts}, {args.batch}, {args.dim}]: vector recursion "
-            f"{_median_ms(former, dev, args.repeats):.3f}, Gram matrix {_median_ms(current, dev, args.repeats):.3f}, "
-            f"pairwise Gram {_median_ms(pairwise, dev, args.repeats):.3f}")
+            f"{median_ms(former, dev, args.repeats, warmup=3):.3f}, Gram matrix {median_ms(current, dev, args.repeats, warmup=3):.3f}, "
+            f"pairwise Gram {median_ms(pairwise, dev, args.repeats, warmup=3):.3f}")
     if args.compile:
         compiled = torch.compile(current)
-        line += f", compiled Gram matrix {_median_ms(compiled, dev, args.repeats):.3f}"
+        line += f", compiled Gram matrix {median_ms(compiled, dev, args.repeats, warmup=3):.3f}"
     print(line)
 
 

@@ -14,34 +14,17 @@ On CUDA every timed step is bracketed by ``torch.cuda.synchronize()``. Prints a 
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 import warnings
 from pathlib import Path
-from typing import Callable
 
 import torch
 from omegaconf import OmegaConf
 
 from mtbench.envs.metaworld import MT10, TASKS
 from mtbench.modules import ARCHITECTURES, arch_kwargs, make_network
-from _timing import sync
+from _timing import median_ms
 
 CONF_DIR = Path(__file__).resolve().parents[1] / "conf" / "arch"
-
-
-def _median_ms(step: Callable[[], None], device: torch.device, warmup: int, repeats: int) -> float:
-    for _ in range(warmup):
-        step()
-    sync(device)
-    times = []
-    for _ in range(repeats):
-        sync(device)
-        t0 = time.perf_counter()
-        step()
-        sync(device)
-        times.append((time.perf_counter() - t0) * 1e3)
-    return statistics.median(times)
 
 
 def build(arch: str, num_tasks: int, state_dim: int, out_dim: int, device: torch.device) -> torch.nn.Module:
@@ -99,8 +82,8 @@ def main() -> None:
             with torch.no_grad():
                 net(obs, task_id)
 
-        t_train = _median_ms(train_step, device, args.warmup, args.repeats)
-        t_infer = _median_ms(infer_step, device, args.warmup, args.repeats)
+        t_train = median_ms(train_step, device, args.repeats, warmup=args.warmup)
+        t_infer = median_ms(infer_step, device, args.repeats, warmup=args.warmup)
         print(f"| {arch} | {n_params:,} | {t_train:.2f} | {t_infer:.2f} |")
         if device.type == "cuda":
             torch.cuda.empty_cache()

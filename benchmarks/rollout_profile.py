@@ -40,19 +40,7 @@ sys.path.insert(0, str(ROOT))
 
 from mtbench.trainer import build_trainer, resolve_device  # noqa: E402
 from mtbench.trainer.rollout import base_env  # noqa: E402
-from _timing import sync  # noqa: E402
-
-
-def _timed(fn, device: torch.device, reps: int) -> float:
-    """Median ms of ``fn()`` over ``reps`` calls, each synchronised before and after."""
-    out = []
-    for _ in range(reps):
-        sync(device)
-        t = time.perf_counter()
-        fn()
-        sync(device)
-        out.append((time.perf_counter() - t) * 1e3)
-    return statistics.median(out)
+from _timing import median_ms, sync  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -101,7 +89,7 @@ def main(argv: list[str] | None = None) -> None:
     policy = trainer.rollout.policy
     env, base = trainer.env, base_env(trainer.env)
     td = env.reset()
-    policy_ms = _timed(lambda: policy(td.clone(False)), device, args.steps)
+    policy_ms = median_ms(lambda: policy(td.clone(False)), device, args.steps)
     acted = policy(td.clone(False))
 
     def policy_and_env_step() -> None:
@@ -115,9 +103,9 @@ def main(argv: list[str] | None = None) -> None:
         nonlocal base_td
         _, base_td = base.step_and_maybe_reset(base.rand_action(base_td))
 
-    env_ms = _timed(policy_and_env_step, device, args.steps) - policy_ms
-    base_ms = _timed(base_step, device, args.steps)
-    stats_ms = _timed(base.pop_episode_stats, device, max(3, args.steps // 4))
+    env_ms = median_ms(policy_and_env_step, device, args.steps) - policy_ms
+    base_ms = median_ms(base_step, device, args.steps)
+    stats_ms = median_ms(base.pop_episode_stats, device, max(3, args.steps // 4))
     rows = [("rollout (trainer.collect, per step)", statistics.median(rollout_ms)), ("policy", policy_ms),
             ("env step (transformed env)", env_ms), ("base env step (random action)", base_ms),
             ("episode stats (per rollout)", stats_ms)]
