@@ -15,6 +15,7 @@ from typing import Sequence
 
 import mujoco
 import mujoco_warp as mjw
+import numpy as np
 import torch
 import warp as wp
 
@@ -404,8 +405,6 @@ class WarpSim:
 
     def _stack_keyframes(self) -> None:
         """One keyframe block per world model: model ``i``'s keyframe ``k`` becomes keyframe ``i * nkey + k``."""
-        import numpy as np
-
         nkey = self.mjm.nkey
         for name in KEY_FIELDS:
             current = getattr(self.model, name)
@@ -423,8 +422,6 @@ class WarpSim:
     def _init_world_models(self, reset_key: int) -> None:
         """Write each world model's batched field values, keyframe ids, initial state and world-fixed geom offsets
         into its worlds (before the graphs are captured)."""
-        import numpy as np
-
         key_base, start = [], 0
         offsets = {body: [] for body in self._static_geoms}
         data_fields = [f.name for f in dataclasses.fields(self.data)
@@ -452,11 +449,13 @@ class WarpSim:
                                                                    and src.shape[0] != dst.shape[1]):
                     continue
                 dst[sl] = torch.as_tensor(src, device=self.device).to(dst.dtype).reshape(dst.shape[1:])
-            for body, (ids, table_offsets) in self._static_geoms.items():
+            for body, (ids, _) in self._static_geoms.items():
                 offsets[body].append(self._geom_offsets(m, body, ids).expand(count, -1, -1))
             start += count
         self._static_geoms = {body: (ids, torch.cat(offsets[body])) for body, (ids, _) in self._static_geoms.items()}
         self._world_key = torch.cat(key_base)
+        if self.device.type == "cuda":  # the writes above (torch's stream) before the sim's stream reads them
+            torch.cuda.synchronize(self.device)
 
     def _geom_offsets(self, m: mujoco.MjModel, body: int, ids: torch.Tensor) -> torch.Tensor:
         d = mujoco.MjData(m)
