@@ -95,3 +95,30 @@ def test_models_differing_in_shared_fields_are_not_grouped() -> None:
     # different strict groups are never merged
     models = [compiled_task(t)[1] for t in ("reach", "drawer_open")]
     assert MetaWorldEnv._model_groups(models) == [[0], [1]]
+
+
+def test_tasks_of_one_group_need_not_be_adjacent() -> None:
+    """A group's worlds are gathered from non-adjacent task ranges of the env (its sim keeps them contiguous)."""
+    tasks = ["pick_place", "drawer_open", "push", "drawer_close", "reach", "door_lock"]
+    plain, grouped = _env(False, tasks=tasks), _env(True, tasks=tasks)
+    assert grouped.model_groups == [[0, 2, 4], [1, 3], [5]] and not grouped._sims_in_world_order
+    actions = _actions(plain, 60, 4)
+    a, b = _run(plain, actions)[1:], _run(grouped, actions)[1:]
+    _assert_same(a, b)
+    assert a[2].any()
+
+
+def test_grouped_env_renders_as_one_model_per_task() -> None:
+    """Each task's frames come from its worlds of the shared sim, as from its own model (same poses: same image)."""
+    from mtbench.evaluation.render import EnvRenderer
+
+    tasks = ["drawer_open", "reach", "drawer_close"]
+    plain, grouped = _env(False, tasks=tasks), _env(True, tasks=tasks)
+    assert grouped.model_groups == [[0, 2], [1]]
+    actions = _actions(plain, 5, 2)
+    _run(plain, actions), _run(grouped, actions)
+    a = EnvRenderer(plain, 32, 24, worlds_per_task=2).render()
+    b = EnvRenderer(grouped, 32, 24, worlds_per_task=2).render()
+    assert a.shape == b.shape == (3, 2, 24, 32, 3)
+    assert (a.int() - b.int()).abs().max() <= 1
+    assert not torch.equal(b[0], b[2])  # drawer_open's and drawer_close's own worlds, not the same ones twice

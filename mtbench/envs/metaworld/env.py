@@ -75,7 +75,7 @@ class MetaWorldEnv(EnvBase):
             ``reward_v2``; see ``docs/metaworld.md``).
         action_scale: metres of TCP displacement per control step at ``|action| = 1`` (``robot.ACTION_SCALE`` =
             0.01, Meta-World's; MTBench's discrete-action PQN runs use 0.005).
-        group_models: let consecutive tasks whose compiled models share every field MuJoCo Warp cannot batch per
+        group_models: let tasks whose compiled models share every field MuJoCo Warp cannot batch per
             world (:func:`~.models.strict_signature`, checked by :func:`~mtbench.sim.groupable`) share one
             :class:`~mtbench.sim.WarpSim` (fewer, larger physics blocks; each task's differing fields and keyframe
             are per world). ``env.blocks[i][1].sim`` is then a :class:`~mtbench.sim.WarpSimSlice`; ``env.sims``
@@ -152,9 +152,10 @@ class MetaWorldEnv(EnvBase):
         self.model_groups: list[list[int]] = self._model_groups([m for _, m in task_models]) if group_models else [
             [i] for i in range(len(tasks))]
         sims: list[WarpSim] = []
-        self._sim_slices: list[slice] = []
-        task_sims: list[WarpSim | WarpSimSlice] = []
-        start = 0
+        # each sim's worlds in the env's world order: a slice when its tasks are adjacent, else an index tensor
+        self._sim_worlds: list[slice | torch.Tensor] = []
+        task_sims: list[WarpSim | WarpSimSlice | None] = [None] * len(tasks)
+        task_start = [sum(counts[:i]) for i in range(len(tasks))]
         for group in self.model_groups:
             mjm = task_models[group[0]][1]
             n = sum(counts[i] for i in group)
@@ -163,12 +164,15 @@ class MetaWorldEnv(EnvBase):
                           batched_fields=("body_pos",), use_graph=use_graph,
                           box_box_collider=box_box_collider, world_models=world_models)
             sims.append(sim)
-            self._sim_slices.append(slice(start, start + n))
+            if group == list(range(group[0], group[0] + len(group))):
+                self._sim_worlds.append(slice(task_start[group[0]], task_start[group[0]] + n))
+            else:
+                self._sim_worlds.append(torch.cat([torch.arange(task_start[i], task_start[i] + counts[i])
+                                                   for i in group]).to(dev))
             offset = 0
             for i in group:
-                task_sims.append(sim if world_models is None else WarpSimSlice(sim, offset, offset + counts[i]))
+                task_sims[i] = sim if world_models is None else WarpSimSlice(sim, offset, offset + counts[i])
                 offset += counts[i]
-            start += n
         start = 0
         for (task_cls, mjm), count, sim in zip(task_models, counts, task_sims):
             task = task_cls(mjm, dev)
@@ -204,6 +208,8 @@ class MetaWorldEnv(EnvBase):
         self._done = torch.zeros(num_envs, dtype=torch.bool, device=dev)
         self._obs = torch.zeros(num_envs, STATE_DIM + self.num_tasks, device=dev)
         self._sims = sims
+        self._sims_in_world_order = all(isinstance(w, slice) for w in self._sim_worlds) and [
+            w.start for w in self._sim_worlds] == sorted(w.start for w in self._sim_worlds)
         enabled = torch_graphs and dev.type == "cuda"
         pool = torch.cuda.graph_pool_handle() if enabled else None
         stream = torch.cuda.Stream(device=dev) if enabled else None
@@ -252,21 +258,23 @@ class MetaWorldEnv(EnvBase):
 
     @property
     def sims(self) -> list[WarpSim]:
-        """The distinct physics blocks (one per task unless ``group_models``), in world order."""
+        """The distinct physics blocks (one per task unless ``group_models``), in the order of their first task."""
         return list(self._sims)
 
     @staticmethod
     def _model_groups(models: list) -> list[list[int]]:
-        """Runs of consecutive task indices whose models can share one MuJoCo Warp model."""
+        """Task indices whose models can share one MuJoCo Warp model, adjacent or not: each task joins the first
+        earlier group of its strict signature that it can be batched with, else starts a group (groups in the
+        order of their first task)."""
         groups: list[list[int]] = []
+        signatures = [strict_signature(m) for m in models]
         for i, m in enumerate(models):
-            if groups:
-                last = groups[-1]
-                if (strict_signature(models[last[0]]) == strict_signature(m)
-                        and groupable([models[j] for j in last] + [m])):
-                    last.append(i)
-                    continue
-            groups.append([i])
+            for group in groups:
+                if signatures[group[0]] == signatures[i] and groupable([models[j] for j in group] + [m]):
+                    group.append(i)
+                    break
+            else:
+                groups.append([i])
         return groups
 
     # ------------------------------------------------------------------ internals
@@ -292,8 +300,8 @@ class MetaWorldEnv(EnvBase):
     # A reset of the worlds in ``mask``: stage the robot reset (torch) -> launch the keyframe reset (Warp) ->
     # place objects and goals (torch) -> launch kinematics (Warp) -> record the reset state (torch).
     def _stage_resets(self, mask: torch.Tensor) -> None:
-        for sim, sl in zip(self._sims, self._sim_slices):
-            sim.stage_reset(mask[sl])
+        for sim, worlds in zip(self._sims, self._sim_worlds):
+            sim.stage_reset(mask[worlds])
 
     def _place_objects(self, mask: torch.Tensor) -> None:
         """Objects and goals of the worlds in ``mask``: resampled ("-rand") or each world's first sample."""
@@ -370,7 +378,10 @@ class MetaWorldEnv(EnvBase):
         self._refresh_kinematic_quantities()
         frame = self._frames()
         reward, success = self._evaluate(self._action)
-        unhealthy = torch.cat([sim.unhealthy() for sim in self._sims])
+        if self._sims_in_world_order:
+            unhealthy = torch.cat([sim.unhealthy() for sim in self._sims])
+        else:  # grouped tasks that are not adjacent: per task, in the env's world order
+            unhealthy = torch.cat([s.sim.unhealthy() for _, s in self.blocks])
         reward = torch.where(torch.isfinite(reward) & ~unhealthy, reward, torch.zeros_like(reward))
         self._step_count += 1
         self._ep_return += reward
