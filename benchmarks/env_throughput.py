@@ -51,7 +51,7 @@ def is_parkour(env_name: str) -> bool:
 
 
 def _contacts_per_world(env) -> float:
-    sims = [env.sim] if hasattr(env, "sim") else [s.sim for _, s in env.blocks]
+    sims = [env.sim] if hasattr(env, "sim") else env.sims
     return sum(float(wp.to_torch(sim.data.nacon)[0]) for sim in sims) / env.batch_size[0]
 
 
@@ -125,7 +125,7 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
             parallel_streams: bool = True, torch_graphs: bool = True, policy: str = "random",
             robot_collision: str = "primitive", box_box: str = "primitive",
             terrain_collision: str = parkour_robot.DEFAULT_TERRAIN_COLLISION, terrain_representation: str = "grid",
-            num_rows: int = 10, compile_stages: bool = False, phases: bool = False,
+            num_rows: int = 10, compile_stages: bool = False, phases: bool = False, group_models: bool = False,
             robot_joints: tuple[str, float | None, str] = (parkour_robot.DEFAULT_INERTIAL_MODEL, None,
                                                            parkour_robot.DEFAULT_INTEGRATOR)) -> dict:
     parkour = is_parkour(env_name)
@@ -143,7 +143,8 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         if policy in ("trot", "stand"):
             raise ValueError(f"--policy {policy} is for Parkour; Meta-World takes random or scripted")
         overrides = {"parallel_streams": parallel_streams, "torch_graphs": torch_graphs,
-                     "robot_collision": robot_collision, "box_box_collider": box_box, "compile_stages": compile_stages}
+                     "robot_collision": robot_collision, "box_box_collider": box_box, "compile_stages": compile_stages,
+                     "group_models": group_models}
         collision = f"{robot_collision} hand, {box_box} box-box"
         if substeps is not None:
             overrides["substeps"] = substeps
@@ -170,6 +171,7 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         mode += ", compiled"
     if not parkour:
         mode += ", block streams" if parallel_streams else ", one stream"
+        mode += f", {len(env.sims)} physics blocks" + (" (grouped models)" if group_models else "")
     sim_substeps = env.sim.substeps if parkour else env.blocks[0][1].sim.substeps
     return {
         "env": env_name,
@@ -220,6 +222,8 @@ def main() -> None:
     parser.add_argument("--robot-integrator", choices=tuple(parkour_robot.INTEGRATORS),
                         default=parkour_robot.DEFAULT_INTEGRATOR, help="Parkour: euler or implicitfast")
     parser.add_argument("--compile-stages", action="store_true", help="Meta-World: torch.compile the env's torch stages")
+    parser.add_argument("--group-models", action="store_true",
+                        help="Meta-World: tasks whose models MuJoCo Warp can batch share one model (group_models=True)")
     parser.add_argument("--phases", action="store_true",
                         help="Meta-World: also time each part of a step on its own (ms per step)")
     args = parser.parse_args()
@@ -236,7 +240,7 @@ def main() -> None:
                     robot_collision=args.robot_collision, box_box=args.box_box,
                     terrain_collision=args.terrain_collision, terrain_representation=args.terrain_representation,
                     num_rows=args.num_rows, compile_stages=args.compile_stages, phases=args.phases,
-                    robot_joints=(args.robot_inertia, args.robot_armature, args.robot_integrator))
+                    group_models=args.group_models, robot_joints=(args.robot_inertia, args.robot_armature, args.robot_integrator))
         print(f"| {r['env']} | {r['num_envs']} | {r['policy']} | {r['collision']} | {r['mode']} | {r['substeps']} | "
               f"{r['env_steps_per_s']:,.0f} | {r['physics_steps_per_s']:,.0f} | {r['ms_per_step']:.2f} | "
               f"{r['contacts_per_world']:.2f} | {r['success']:.1%} | {r['build_s']:.1f} | {r['first_step_s']:.1f} | "

@@ -14,9 +14,11 @@ the step and for the others, and per observation field. The check passes when gr
 argument ``cpu`` runs the same check on the CPU
 (no graphs of torch work there: graph vs eager is eager vs eager, and must be exactly 0). A fifth argument
 ``compile`` builds the Meta-World env with ``compile_stages=True``: the graphs then replay the compiled stages, and
-the eager path runs the original, uncompiled code.
+the eager path runs the original, uncompiled code. ``group`` (after ``compile`` or alone) builds it with
+``group_models=True`` (tasks whose models MuJoCo Warp can batch share one model).
 
     python benchmarks/gpu_check.py mt50_rand 500 20 cuda compile
+    python benchmarks/gpu_check.py mt50_rand 500 20 cuda compile group
 """
 
 from __future__ import annotations
@@ -36,8 +38,14 @@ def main() -> None:
     trials = int(sys.argv[3]) if len(sys.argv) > 3 else 40
     device = sys.argv[4] if len(sys.argv) > 4 else "cuda"
     overrides = {"num_rows": 2} if name.startswith("parkour") else {}  # a small terrain grid is enough here
-    if len(sys.argv) > 5 and sys.argv[5] == "compile":
+    modes = sys.argv[5:]
+    unknown = set(modes) - {"compile", "group"}
+    if unknown:
+        raise SystemExit(f"unknown mode(s) {sorted(unknown)}; valid choices: compile, group")
+    if "compile" in modes:
         overrides["compile_stages"] = True
+    if "group" in modes:
+        overrides["group_models"] = True
     env = make_env(name, num_envs=n, device=device, seed=0, **overrides)
     action_dim = int(env.action_spec.shape[-1])
     check_env_specs(env)

@@ -26,7 +26,7 @@ import mujoco_warp as mjw
 import torch
 import warp as wp
 
-from ..sim import WarpSim
+from ..sim import WarpSim, WarpSimSlice
 
 
 @dataclasses.dataclass(frozen=True)
@@ -249,8 +249,10 @@ class WorldRenderer:
 
 
 
-def block_sims(env: Any) -> list[WarpSim]:
-    """The :class:`~mtbench.sim.WarpSim` of every task block of an mtbench env (``env.blocks[i][1].sim``)."""
+def block_sims(env: Any) -> list[WarpSim | WarpSimSlice]:
+    """The simulator of every task block of an mtbench env (``env.blocks[i][1].sim``): a
+    :class:`~mtbench.sim.WarpSim`, or a :class:`~mtbench.sim.WarpSimSlice` of one shared by several tasks
+    (``group_models``)."""
     blocks = getattr(env, "blocks", None)
     if blocks is None:
         raise TypeError(f"env {type(env).__name__} has no 'blocks' (mtbench env contract): cannot render it")
@@ -258,7 +260,7 @@ def block_sims(env: Any) -> list[WarpSim]:
     for i, block in enumerate(blocks):
         state = block[1] if isinstance(block, (tuple, list)) else block
         sim = getattr(state, "sim", None)
-        if not isinstance(sim, WarpSim):
+        if not isinstance(sim, (WarpSim, WarpSimSlice)):
             raise TypeError(f"block {i} of {type(env).__name__} has no WarpSim at .sim: cannot render it")
         sims.append(sim)
     return sims
@@ -321,8 +323,11 @@ class EnvRenderer:
                 raise ValueError(f"worlds_per_task must be in [1, {fewest}] (the smallest task block), "
                                  f"got {worlds_per_task}")
             self.task_ids = list(range(len(sims)))
-            self.renderers = [WorldRenderer(s, worlds_per_task, width, height, camera, shadows=shadows)
-                              for s in sims]
+            self.renderers = [
+                WorldRenderer(s, worlds_per_task, width, height, camera, shadows=shadows) if isinstance(s, WarpSim)
+                else WorldRenderer(s.sim, worlds_per_task, width, height, camera, shadows=shadows,
+                                   worlds=torch.arange(s.worlds.start, s.worlds.start + worlds_per_task))
+                for s in sims]
         self.num_tasks = len(self.task_ids)
         self.device = self.renderers[0].device
 

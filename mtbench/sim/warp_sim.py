@@ -15,8 +15,11 @@ from typing import Sequence
 
 import mujoco
 import mujoco_warp as mjw
+import numpy as np
 import torch
 import warp as wp
+
+from .world_groups import KEY_FIELDS, per_world_fields
 
 if not os.environ.get("MTBENCH_WARP_VERBOSE"):
     # no per-kernel load/compile chatter (set MTBENCH_WARP_VERBOSE=1 to see it); errors still raise
@@ -110,6 +113,12 @@ class WarpSim:
             (``mjw.rne_postconstraint``), read through :attr:`body_contact_force`.
         fatal_overflow: the ``mjw.OverflowType`` bits that make a world unhealthy (:meth:`unhealthy`); default
             ``FATAL_OVERFLOW`` (every dropped contact or constraint).
+        world_models: several models of one structure in one sim (``None``: every world is ``mjm``): a list of
+            ``(model, count)`` whose counts add up to ``nworld`` (``mjm`` must be the first model); worlds
+            ``[sum(counts[:i]), sum(counts[:i+1]))`` simulate model ``i``: its values of the fields that differ
+            (batched per world, added to ``batched_fields``), its keyframes (:meth:`reset`) and its initial state.
+            Raises :class:`~mtbench.sim.world_groups.UngroupableModels` if the models differ in a field MuJoCo Warp
+            shares across worlds.
     """
 
     def __init__(
@@ -128,6 +137,7 @@ class WarpSim:
         box_box_collider: str = "primitive",
         contact_forces: bool = False,
         fatal_overflow: int = FATAL_OVERFLOW,
+        world_models: Sequence[tuple[mujoco.MjModel, int]] | None = None,
     ) -> None:
         if box_box_collider not in BOX_BOX_COLLIDERS:
             raise ValueError(f"unknown box_box_collider {box_box_collider!r}; valid choices: "
@@ -144,6 +154,17 @@ class WarpSim:
         if self.device.type == "cuda" and self.device.index is None:
             self.device = torch.device(self.wp_device)
         self.use_graph = use_graph
+        self.world_models: list[tuple[mujoco.MjModel, int]] | None = None
+        if world_models is not None:
+            world_models = [(m, int(c)) for m, c in world_models]
+            if not world_models or world_models[0][0] is not mjm:
+                raise ValueError("world_models must start with mjm (the model the sim is built from)")
+            if any(c < 1 for _, c in world_models) or sum(c for _, c in world_models) != nworld:
+                raise ValueError(f"world_models counts {[c for _, c in world_models]} must be positive and add up "
+                                 f"to nworld={nworld}")
+            extra = per_world_fields([m for m, _ in world_models])  # raises UngroupableModels
+            batched_fields = tuple(batched_fields) + tuple(f for f in extra if f not in batched_fields)
+            self.world_models = world_models
         self.batched_fields = tuple(batched_fields)
         self.contact_forces = bool(contact_forces)
         self.fatal_overflow = int(fatal_overflow)
@@ -163,6 +184,8 @@ class WarpSim:
             if box_box_collider == "primitive":  # MuJoCo Warp reads this flag when it builds the collision table
                 self.model.opt.disableflags |= int(mjw.DisableBit.NATIVECCD)
             self.data = mjw.put_data(mjm, data0, nworld=nworld, nconmax=nconmax, njmax=njmax)
+            if self.world_models is not None and self._has_key:
+                self._stack_keyframes()
             self._key_ids = wp.full(nworld, -1, dtype=int)
             # a reset of a world that went non-finite also zeroes the NaN/inf values its derived quantities and
             # solver buffers kept (MuJoCo Warp's reset restores the state, not e.g. the constraint rows beyond
@@ -200,6 +223,9 @@ class WarpSim:
         for name in self.batched_fields:
             self.model_field(name)
         self._static_geoms = self._static_geom_table()
+        self._world_key: torch.Tensor | None = None
+        if self.world_models is not None:
+            self._init_world_models(reset_key)
         self._graphs: dict[str, object] = {}
         self._phases = {"step": self._step_impl, "reset": self._reset_impl, "kin": self._kinematics_impl}
         if use_graph:
@@ -293,7 +319,9 @@ class WarpSim:
     def stage_reset(self, mask: torch.Tensor) -> None:
         """Mark the worlds where ``mask`` (bool ``[nworld]``) is true for the next ``"reset"`` launch and clear
         their overflow flags. Torch work only (safe inside a torch CUDA graph capture)."""
-        if self._has_key:
+        if self._has_key and self._world_key is not None:  # each world's model's keyframe 0
+            self._key_ids_t.copy_(torch.where(mask, self._world_key, -1))
+        elif self._has_key:
             self._key_ids_t.copy_(mask.to(self._key_ids_t.dtype) - 1)  # keyframe 0 where mask, -1 (untouched) elsewhere
         else:
             self._reset_mask_t.copy_(mask)
@@ -338,23 +366,103 @@ class WarpSim:
             dst.copy_(value.to(dst.device))
         self.kinematics()
 
-    def set_body_pos(self, body: int, pos: torch.Tensor, mask: torch.Tensor) -> None:
+    def set_body_pos(self, body: int, pos: torch.Tensor, mask: torch.Tensor, worlds: slice | None = None) -> None:
         """Move a body that is fixed to the world (no joint on its path to the world) to ``pos`` ``[nworld, 3]``
         in the worlds of ``mask``; needs ``"body_pos"`` in ``batched_fields``.
 
         MuJoCo Warp computes the positions of world-fixed geoms once, when the data is made, so besides the
         per-world ``body_pos`` this also translates those geoms in the body's subtree (orientation unchanged).
-        Jointed children, sites and the body frame follow through kinematics.
+        Jointed children, sites and the body frame follow through kinematics. ``worlds``: only these worlds
+        (``pos`` and ``mask`` then have their length).
         """
         if "body_pos" not in self.batched_fields:
             raise ValueError("set_body_pos needs batched_fields=('body_pos', ...) when the WarpSim is created")
-        field = self.model_field("body_pos")[:, body]
+        if worlds is None:
+            field = self.model_field("body_pos")[:, body]
+        else:
+            field = self.model_field("body_pos")[worlds, body]
         field.copy_(torch.where(mask[:, None], pos, field))
         ids, offsets = self._static_geoms[body]
         if ids.numel():  # shape metadata, no device sync
             geom_xpos = self.geom_xpos
+            if worlds is not None:
+                geom_xpos = geom_xpos[worlds]
+            if offsets.dim() == 3:  # per world (world_models)
+                offsets = offsets if worlds is None else offsets[worlds]
             current = geom_xpos.index_select(1, ids)
             geom_xpos.index_copy_(1, ids, torch.where(mask[:, None, None], pos[:, None, :] + offsets, current))
+
+    def world_mjm(self, world: int) -> mujoco.MjModel:
+        """The MjModel that world ``world`` simulates (``mjm`` unless the sim has ``world_models``)."""
+        if self.world_models is None:
+            return self.mjm
+        start = 0
+        for m, count in self.world_models:
+            if start <= world < start + count:
+                return m
+            start += count
+        raise IndexError(f"world {world} out of range for {self.nworld} worlds")
+
+    def _stack_keyframes(self) -> None:
+        """One keyframe block per world model: model ``i``'s keyframe ``k`` becomes keyframe ``i * nkey + k``."""
+        nkey = self.mjm.nkey
+        for name in KEY_FIELDS:
+            current = getattr(self.model, name)
+            per_key = tuple(current.shape[1:]) + tuple(getattr(current.dtype, "_shape_", ()))
+            stacked = np.concatenate([np.asarray(getattr(m, name), dtype=np.float64).reshape((nkey,) + per_key)
+                                      for m, _ in self.world_models])
+            if stacked.size:
+                new = wp.array(stacked, dtype=current.dtype, device=self.wp_device)
+            else:
+                new = wp.zeros((stacked.shape[0],) + tuple(current.shape[1:]), dtype=current.dtype,
+                               device=self.wp_device)
+            setattr(self.model, name, new)
+        self.model.nkey = nkey * len(self.world_models)
+
+    def _init_world_models(self, reset_key: int) -> None:
+        """Write each world model's batched field values, keyframe ids, initial state and world-fixed geom offsets
+        into its worlds (before the graphs are captured)."""
+        key_base, start = [], 0
+        offsets = {body: [] for body in self._static_geoms}
+        data_fields = [f.name for f in dataclasses.fields(self.data)
+                       if isinstance(getattr(self.data, f.name), wp.array)]
+        for i, (m, count) in enumerate(self.world_models):
+            sl = slice(start, start + count)
+            for name in self.batched_fields:
+                view = self.model_field(name)
+                value = torch.as_tensor(np.asarray(getattr(m, name)), device=self.device)
+                view[sl] = value.to(view.dtype).reshape(view.shape[1:])
+            key_base.append(torch.full((count,), i * self.mjm.nkey, dtype=self._key_ids_t.dtype, device=self.device))
+            # the state put_data would have made from this model (incl. the world-fixed geom poses, computed once)
+            d = mujoco.MjData(m)
+            if self._has_key:
+                mujoco.mj_resetDataKeyframe(m, d, reset_key)
+            mujoco.mj_forward(m, d)
+            for name in data_fields:
+                src = getattr(d, name, None)
+                arr = getattr(self.data, name)
+                if (not isinstance(src, np.ndarray) or arr.ndim < 1 or arr.shape[0] != self.nworld
+                        or name.startswith(("efc_", "contact"))):
+                    continue
+                dst = wp.to_torch(arr)
+                if src.size != dst[0].numel() or src.size == 0 or (src.ndim and dst.ndim > 1
+                                                                   and src.shape[0] != dst.shape[1]):
+                    continue
+                dst[sl] = torch.as_tensor(src, device=self.device).to(dst.dtype).reshape(dst.shape[1:])
+            for body, (ids, _) in self._static_geoms.items():
+                offsets[body].append(self._geom_offsets(m, body, ids).expand(count, -1, -1))
+            start += count
+        self._static_geoms = {body: (ids, torch.cat(offsets[body])) for body, (ids, _) in self._static_geoms.items()}
+        self._world_key = torch.cat(key_base)
+        if self.device.type == "cuda":  # the writes above (torch's stream) before the sim's stream reads them
+            torch.cuda.synchronize(self.device)
+
+    def _geom_offsets(self, m: mujoco.MjModel, body: int, ids: torch.Tensor) -> torch.Tensor:
+        d = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, d)
+        idx = ids.cpu().numpy()
+        return torch.tensor(d.geom_xpos[idx] - d.xpos[body], dtype=torch.float32,
+                            device=self.device).reshape(1, -1, 3)
 
     def _static_geom_table(self) -> dict[int, tuple[torch.Tensor, torch.Tensor]]:
         """For every world-fixed body: its subtree's world-fixed geoms and their offsets from the body."""

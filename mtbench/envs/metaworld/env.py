@@ -10,12 +10,12 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
-from ...sim import WarpSim, launch_all, warp_device
+from ...sim import WarpSim, WarpSimSlice, groupable, launch_all, warp_device
 from ...utils import GraphedStage
 from ..inputs import checked_action, reset_mask
 from . import observation as layout
 from . import robot
-from .models import compiled_task
+from .models import compiled_task, strict_signature
 from .reward_utils import mtbench_tolerance
 from .task import HAND_HIGH, HAND_LOW, REWARD_REVISIONS, MetaWorldTask, Reward, TaskState, check_reward_version
 
@@ -75,6 +75,11 @@ class MetaWorldEnv(EnvBase):
             ``reward_v2``; see ``docs/metaworld.md``).
         action_scale: metres of TCP displacement per control step at ``|action| = 1`` (``robot.ACTION_SCALE`` =
             0.01, Meta-World's; MTBench's discrete-action PQN runs use 0.005).
+        group_models: let tasks whose compiled models share every field MuJoCo Warp cannot batch per
+            world (:func:`~.models.strict_signature`, checked by :func:`~mtbench.sim.groupable`) share one
+            :class:`~mtbench.sim.WarpSim` (fewer, larger physics blocks; each task's differing fields and keyframe
+            are per world). ``env.blocks[i][1].sim`` is then a :class:`~mtbench.sim.WarpSimSlice`; ``env.sims``
+            lists the distinct sims. Off (default): one sim per task.
     """
 
     _torchrl_native_autoreset = True
@@ -102,6 +107,7 @@ class MetaWorldEnv(EnvBase):
         box_box_collider: str = "primitive",
         reward_version: str = "paper",
         action_scale: float = robot.ACTION_SCALE,
+        group_models: bool = False,
     ) -> None:
         tasks = list(tasks)
         counts = [int(c) for c in task_counts]
@@ -140,12 +146,35 @@ class MetaWorldEnv(EnvBase):
         self._dense_rewards: list[Reward] = []
         self._success_rewards: list[Reward] = []
         self.slices: list[slice] = []
-        start = 0
-        for name, count in zip(tasks, counts):
-            task_cls, mjm = compiled_task(name, robot_collision)
-            sim = WarpSim(mjm, count, dev, substeps=substeps, nconmax=nconmax, njmax=njmax,
+        self.group_models = bool(group_models)
+        task_models = [compiled_task(name, robot_collision) for name in tasks]
+        #: task indices of each physics block (one WarpSim each): one task per block unless ``group_models``
+        self.model_groups: list[list[int]] = self._model_groups([m for _, m in task_models]) if group_models else [
+            [i] for i in range(len(tasks))]
+        sims: list[WarpSim] = []
+        # each sim's worlds in the env's world order: a slice when its tasks are adjacent, else an index tensor
+        self._sim_worlds: list[slice | torch.Tensor] = []
+        task_sims: list[WarpSim | WarpSimSlice | None] = [None] * len(tasks)
+        task_start = [sum(counts[:i]) for i in range(len(tasks))]
+        for group in self.model_groups:
+            mjm = task_models[group[0]][1]
+            n = sum(counts[i] for i in group)
+            world_models = [(task_models[i][1], counts[i]) for i in group] if len(group) > 1 else None
+            sim = WarpSim(mjm, n, dev, substeps=substeps, nconmax=nconmax, njmax=njmax,
                           batched_fields=("body_pos",), use_graph=use_graph,
-                          box_box_collider=box_box_collider)
+                          box_box_collider=box_box_collider, world_models=world_models)
+            sims.append(sim)
+            if group == list(range(group[0], group[0] + len(group))):
+                self._sim_worlds.append(slice(task_start[group[0]], task_start[group[0]] + n))
+            else:
+                self._sim_worlds.append(torch.cat([torch.arange(task_start[i], task_start[i] + counts[i])
+                                                   for i in group]).to(dev))
+            offset = 0
+            for i in group:
+                task_sims[i] = sim if world_models is None else WarpSimSlice(sim, offset, offset + counts[i])
+                offset += counts[i]
+        start = 0
+        for (task_cls, mjm), count, sim in zip(task_models, counts, task_sims):
             task = task_cls(mjm, dev)
             self.blocks.append((task, task.new_state(sim, count)))
             self._dense_rewards.append(task.dense_reward(reward_version))
@@ -178,7 +207,9 @@ class MetaWorldEnv(EnvBase):
         self._reward = torch.zeros(num_envs, device=dev)
         self._done = torch.zeros(num_envs, dtype=torch.bool, device=dev)
         self._obs = torch.zeros(num_envs, STATE_DIM + self.num_tasks, device=dev)
-        self._sims = [s.sim for _, s in self.blocks]
+        self._sims = sims
+        self._sims_in_world_order = all(isinstance(w, slice) for w in self._sim_worlds) and [
+            w.start for w in self._sim_worlds] == sorted(w.start for w in self._sim_worlds)
         enabled = torch_graphs and dev.type == "cuda"
         pool = torch.cuda.graph_pool_handle() if enabled else None
         stream = torch.cuda.Stream(device=dev) if enabled else None
@@ -225,6 +256,27 @@ class MetaWorldEnv(EnvBase):
         self.full_done_spec = Composite(done=done.clone(), terminated=done.clone(), truncated=done.clone(),
                                         shape=(n,), device=dev)
 
+    @property
+    def sims(self) -> list[WarpSim]:
+        """The distinct physics blocks (one per task unless ``group_models``), in the order of their first task."""
+        return list(self._sims)
+
+    @staticmethod
+    def _model_groups(models: list) -> list[list[int]]:
+        """Task indices whose models can share one MuJoCo Warp model, adjacent or not: each task joins the first
+        earlier group of its strict signature that it can be batched with, else starts a group (groups in the
+        order of their first task)."""
+        groups: list[list[int]] = []
+        signatures = [strict_signature(m) for m in models]
+        for i, m in enumerate(models):
+            for group in groups:
+                if signatures[group[0]] == signatures[i] and groupable([models[j] for j in group] + [m]):
+                    group.append(i)
+                    break
+            else:
+                groups.append([i])
+        return groups
+
     # ------------------------------------------------------------------ internals
     def _refresh_kinematic_quantities(self) -> None:
         for task, s in self.blocks:
@@ -248,8 +300,8 @@ class MetaWorldEnv(EnvBase):
     # A reset of the worlds in ``mask``: stage the robot reset (torch) -> launch the keyframe reset (Warp) ->
     # place objects and goals (torch) -> launch kinematics (Warp) -> record the reset state (torch).
     def _stage_resets(self, mask: torch.Tensor) -> None:
-        for sim, sl in zip(self._sims, self.slices):
-            sim.stage_reset(mask[sl])
+        for sim, worlds in zip(self._sims, self._sim_worlds):
+            sim.stage_reset(mask[worlds])
 
     def _place_objects(self, mask: torch.Tensor) -> None:
         """Objects and goals of the worlds in ``mask``: resampled ("-rand") or each world's first sample."""
@@ -326,7 +378,10 @@ class MetaWorldEnv(EnvBase):
         self._refresh_kinematic_quantities()
         frame = self._frames()
         reward, success = self._evaluate(self._action)
-        unhealthy = torch.cat([sim.unhealthy() for sim in self._sims])
+        if self._sims_in_world_order:
+            unhealthy = torch.cat([sim.unhealthy() for sim in self._sims])
+        else:  # grouped tasks that are not adjacent: per task, in the env's world order
+            unhealthy = torch.cat([s.sim.unhealthy() for _, s in self.blocks])
         reward = torch.where(torch.isfinite(reward) & ~unhealthy, reward, torch.zeros_like(reward))
         self._step_count += 1
         self._ep_return += reward
@@ -430,13 +485,15 @@ class MetaWorldEnv(EnvBase):
         RNG, per-task buffers and every block's physics state (included in ``env.state_dict()``)."""
         blocks = []
         for b, (task, s) in enumerate(self.blocks):
-            blocks.append({
-                "sim": s.sim.get_state(),
+            block = {
                 "task": {k: getattr(s, k).clone() for k in self._TASK_STATE},
                 "buffers": {k: v.clone() for k, v in s.buffers.items()},
                 "reset_vec": self._reset_vec[b].clone(),
-            })
-        return {
+            }
+            if not self.group_models:
+                block = {"sim": s.sim.get_state(), **block}
+            blocks.append(block)
+        state = {
             "task_names": list(self.task_names),
             "task_counts": list(self.task_counts),
             "reward_version": self.reward_version,
@@ -444,6 +501,10 @@ class MetaWorldEnv(EnvBase):
             "generator": self._generator.get_state(),
             "blocks": blocks,
         }
+        if self.group_models:  # one physics state per distinct sim
+            state["model_groups"] = [list(g) for g in self.model_groups]
+            state["sims"] = [sim.get_state() for sim in self._sims]
+        return state
 
     def set_extra_state(self, state: dict) -> None:
         if state["task_names"] != list(self.task_names) or state["task_counts"] != list(self.task_counts):
@@ -455,11 +516,20 @@ class MetaWorldEnv(EnvBase):
         if saved_version != self.reward_version:
             raise RuntimeError(f"env state was saved with reward_version={saved_version!r}, this env uses "
                                f"{self.reward_version!r}; a run cannot continue across reward versions")
+        saved_groups = state.get("model_groups", [[i] for i in range(self.num_tasks)])
+        if saved_groups != self.model_groups:
+            raise RuntimeError(f"env state was saved with physics blocks {saved_groups} (group_models="
+                               f"{'model_groups' in state}), this env has {self.model_groups} (group_models="
+                               f"{self.group_models})")
         for k, v in state["episode"].items():
             getattr(self, k).copy_(v)
+        if "sims" in state:
+            for sim, saved in zip(self._sims, state["sims"]):
+                sim.set_state(saved)
         self._generator.set_state(state["generator"].cpu() if self.device.type == "cpu" else state["generator"])
         for b, ((task, s), saved) in enumerate(zip(self.blocks, state["blocks"])):
-            s.sim.set_state(saved["sim"])
+            if "sim" in saved:
+                s.sim.set_state(saved["sim"])
             for k, v in saved["task"].items():
                 getattr(s, k).copy_(v)
             for k, v in saved["buffers"].items():

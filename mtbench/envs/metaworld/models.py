@@ -5,6 +5,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import mujoco
+import numpy as np
 
 from .registry import task_class
 from .scene import build_scene
@@ -16,3 +17,19 @@ def compiled_task(name: str, robot_collision: str = "primitive") -> tuple[type[M
     """``(task class, compiled MjModel)`` for the task ``name`` with the given hand/finger collision geometry."""
     cls = task_class(name)
     return cls, build_scene(cls.scene, edit_spec=cls.edit_spec, robot_collision=robot_collision)
+
+
+def kinematic_signature(m: mujoco.MjModel) -> tuple:
+    """The kinematic tree: sizes, parent bodies, joint types and bodies, equality constraint types."""
+    return (m.nq, m.nv, m.nbody, tuple(m.body_parentid), tuple(m.jnt_type), tuple(m.jnt_bodyid), m.neq,
+            tuple(m.eq_type))
+
+
+def strict_signature(m: mujoco.MjModel) -> tuple:
+    """The kinematic tree plus the fields a MuJoCo Warp model shares across its worlds: models with the same
+    strict signature can be simulated as one MuJoCo Warp model whose differing fields are batched per world
+    (``MetaWorldEnv(group_models=True)``; :func:`mtbench.sim.per_world_fields` checks the remaining fields)."""
+    return kinematic_signature(m) + (
+        m.ngeom, tuple(m.geom_type), tuple(m.geom_bodyid), tuple(m.geom_contype), tuple(m.geom_conaffinity),
+        tuple(m.geom_condim), m.nmesh, m.nmeshvert, m.nhfield, m.nsite, m.nu, m.nmocap, m.nkey, tuple(m.eq_obj1id),
+        tuple(m.eq_obj2id), tuple(np.round(m.jnt_axis, 6).ravel()), m.ntendon, m.nsensor)
