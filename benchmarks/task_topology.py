@@ -2,8 +2,9 @@
 
 MT50's compiled task models grouped by their kinematic tree (parent bodies, joint types, equality constraints) and,
 strictly, by every model field that MuJoCo Warp 4.0 cannot batch per world (geom types and collision filters, joint
-axes, the sizes of everything), then the model arrays that differ inside the strict groups: what a shared model
-would have to carry per world. CPU only, a few seconds.
+axes, the sizes of everything), the model arrays that differ inside the strict groups (what a shared model has to
+carry per world), and the physics blocks ``MetaWorldEnv(group_models=True)`` makes of MT50 (strict groups whose
+differing fields MuJoCo Warp can all batch). CPU only, a few seconds.
 
     python benchmarks/task_topology.py
 """
@@ -16,7 +17,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from mtbench.envs.metaworld.models import compiled_task, kinematic_signature, strict_signature  # noqa: E402
+from mtbench.envs.metaworld.models import compiled_task, kinematic_signature, physics_groups, strict_signature  # noqa: E402
 from mtbench.envs.metaworld.registry import MT50  # noqa: E402
 from mtbench.sim import differing_arrays  # noqa: E402
 
@@ -39,6 +40,10 @@ def main() -> None:
             counts.update(differing_arrays([models[t] for t in group]))
     print("arrays that differ inside strict groups (groups affected):",
           ", ".join(f"{name} ({n})" for name, n in counts.most_common()))
+    tasks = list(models)
+    blocks = physics_groups([models[t] for t in tasks])
+    print(f"group_models=True: {len(blocks)} physics blocks; shared: "
+          + "; ".join(", ".join(tasks[i] for i in b) for b in blocks if len(b) > 1))
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ import torch
 
 from mtbench.envs import make_env
 from mtbench.envs.metaworld.env import MetaWorldEnv
-from mtbench.envs.metaworld.models import compiled_task
+from mtbench.envs.metaworld.models import compiled_task, physics_groups
 from mtbench.sim import UngroupableModels, WarpSim, WarpSimSlice, groupable
 
 # a strict group of 3 (site_pos differs), one of 2 with identical models, one of 2 whose bodies differ, one of 2
@@ -89,12 +89,12 @@ def test_models_differing_in_shared_fields_are_not_grouped() -> None:
     # one strict signature, but reach_wall's dof_length and bvh_aabb (shared across worlds in MuJoCo Warp) differ
     walls = [compiled_task(t)[1] for t in ("pick_place_wall", "push_wall", "reach_wall")]
     assert groupable(walls[:2]) and not groupable(walls[1:])
-    assert MetaWorldEnv._model_groups(walls) == [[0, 1], [2]]
+    assert physics_groups(walls) == [[0, 1], [2]]
     with pytest.raises(UngroupableModels, match="dof_length"):
         WarpSim(walls[1], 2, "cpu", world_models=[(walls[1], 1), (walls[2], 1)], use_graph=False)
     # different strict groups are never merged
     models = [compiled_task(t)[1] for t in ("reach", "drawer_open")]
-    assert MetaWorldEnv._model_groups(models) == [[0], [1]]
+    assert physics_groups(models) == [[0], [1]]
 
 
 def test_tasks_of_one_group_need_not_be_adjacent() -> None:

@@ -10,12 +10,12 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
-from ...sim import WarpSim, WarpSimSlice, groupable, launch_all, warp_device
+from ...sim import WarpSim, WarpSimSlice, launch_all, warp_device
 from ...utils import GraphedStage
 from ..inputs import checked_action, reset_mask
 from . import observation as layout
 from . import robot
-from .models import compiled_task, strict_signature
+from .models import compiled_task, physics_groups
 from .reward_utils import mtbench_tolerance
 from .task import HAND_HIGH, HAND_LOW, REWARD_REVISIONS, MetaWorldTask, Reward, TaskState, check_reward_version
 
@@ -149,7 +149,7 @@ class MetaWorldEnv(EnvBase):
         self.group_models = bool(group_models)
         task_models = [compiled_task(name, robot_collision) for name in tasks]
         #: task indices of each physics block (one WarpSim each): one task per block unless ``group_models``
-        self.model_groups: list[list[int]] = self._model_groups([m for _, m in task_models]) if group_models else [
+        self.model_groups: list[list[int]] = physics_groups([m for _, m in task_models]) if group_models else [
             [i] for i in range(len(tasks))]
         sims: list[WarpSim] = []
         # each sim's worlds in the env's world order: a slice when its tasks are adjacent, else an index tensor
@@ -260,22 +260,6 @@ class MetaWorldEnv(EnvBase):
     def sims(self) -> list[WarpSim]:
         """The distinct physics blocks (one per task unless ``group_models``), in the order of their first task."""
         return list(self._sims)
-
-    @staticmethod
-    def _model_groups(models: list) -> list[list[int]]:
-        """Task indices whose models can share one MuJoCo Warp model, adjacent or not: each task joins the first
-        earlier group of its strict signature that it can be batched with, else starts a group (groups in the
-        order of their first task)."""
-        groups: list[list[int]] = []
-        signatures = [strict_signature(m) for m in models]
-        for i, m in enumerate(models):
-            for group in groups:
-                if signatures[group[0]] == signatures[i] and groupable([models[j] for j in group] + [m]):
-                    group.append(i)
-                    break
-            else:
-                groups.append([i])
-        return groups
 
     # ------------------------------------------------------------------ internals
     def _refresh_kinematic_quantities(self) -> None:

@@ -7,6 +7,7 @@ from functools import lru_cache
 import mujoco
 import numpy as np
 
+from ...sim import groupable
 from .registry import task_class
 from .scene import build_scene
 from .task import MetaWorldTask
@@ -33,3 +34,19 @@ def strict_signature(m: mujoco.MjModel) -> tuple:
         m.ngeom, tuple(m.geom_type), tuple(m.geom_bodyid), tuple(m.geom_contype), tuple(m.geom_conaffinity),
         tuple(m.geom_condim), m.nmesh, m.nmeshvert, m.nhfield, m.nsite, m.nu, m.nmocap, m.nkey, tuple(m.eq_obj1id),
         tuple(m.eq_obj2id), tuple(np.round(m.jnt_axis, 6).ravel()), m.ntendon, m.nsensor)
+
+
+def physics_groups(models: list[mujoco.MjModel]) -> list[list[int]]:
+    """Indices of ``models`` that can share one MuJoCo Warp model (``MetaWorldEnv(group_models=True)``), adjacent or
+    not: each model joins the first earlier group of its :func:`strict_signature` that it can be batched with
+    (:func:`mtbench.sim.groupable`), else starts a group; groups in the order of their first model."""
+    groups: list[list[int]] = []
+    signatures = [strict_signature(m) for m in models]
+    for i, m in enumerate(models):
+        for group in groups:
+            if signatures[group[0]] == signatures[i] and groupable([models[j] for j in group] + [m]):
+                group.append(i)
+                break
+        else:
+            groups.append([i])
+    return groups
