@@ -92,6 +92,8 @@ def test_models_differing_in_shared_fields_are_not_grouped() -> None:
     assert physics_groups(walls) == [[0, 1], [2]]
     with pytest.raises(UngroupableModels, match="dof_length"):
         WarpSim(walls[1], 2, "cpu", world_models=[(walls[1], 1), (walls[2], 1)], use_graph=False)
+    with pytest.raises(ValueError, match="group_models must be True or False; got 'yes'"):
+        make_env("reach", num_envs=2, device="cpu", group_models="yes")
     # different strict groups are never merged
     models = [compiled_task(t)[1] for t in ("reach", "drawer_open")]
     assert physics_groups(models) == [[0], [1]]

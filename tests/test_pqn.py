@@ -445,7 +445,7 @@ def test_pqn_configs_compose_with_the_paper_sizes() -> None:
     assert (lc.lr, lc.max_grad_norm, lc.gamma, lc.lmbda, lc.bins_per_dim) == (3e-4, 10.0, 0.99, 0.5, 3)
     assert (lc.start_epsilon, lc.end_epsilon, lc.exploration_fraction, lc.anneal_lr) == (1.0, 0.005, 0.005, True)
     assert dict(mt10.env.overrides) == {"reward_version": "paper", "episode_length": 500, "action_scale": 0.005,
-                                        "compile_stages": "auto"}  # compiled env stages on CUDA (conf/env/mt10_rand)
+                                        "compile_stages": "auto", "group_models": False}  # conf/env/mt10_rand
     assert mt10.env.num_envs * lc.horizon // lc.minibatch_size == 4
     assert (lc.hold_observation, lc.epsilon_clock) == (True, "mtbench")  # MTBench's code (docs/pqn.md)
     assert (small.loss.hold_observation, small.loss.epsilon_clock) == (False, "frames")

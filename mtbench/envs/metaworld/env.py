@@ -146,7 +146,9 @@ class MetaWorldEnv(EnvBase):
         self._dense_rewards: list[Reward] = []
         self._success_rewards: list[Reward] = []
         self.slices: list[slice] = []
-        self.group_models = bool(group_models)
+        if not isinstance(group_models, bool):
+            raise ValueError(f"group_models must be True or False; got {group_models!r}")
+        self.group_models = group_models
         task_models = [compiled_task(name, robot_collision) for name in tasks]
         #: task indices of each physics block (one WarpSim each): one task per block unless ``group_models``
         self.model_groups: list[list[int]] = physics_groups([m for _, m in task_models]) if group_models else [
