@@ -43,6 +43,27 @@ from mtbench.trainer.rollout import base_env  # noqa: E402
 from _timing import median_ms, sync  # noqa: E402
 
 
+# kernel name fragments -> kind (first match wins; MuJoCo Warp's kernels are named after their Python functions)
+KERNEL_KINDS = (
+    ("heightfield collision", ("hfield",)),
+    ("collision", ("ccd", "collision", "broadphase", "narrowphase", "primitive", "box_box", "contact_params")),
+    ("constraint solver", ("efc", "solve", "linesearch", "cholesky", "gradient", "constraint", "jaref", "limit_",
+                           "equality", "mul_m")),
+    ("torch", ("at::", "aten::", "elementwise", "reduce", "gemm", "cutlass", "triton", "memcpy", "memset", "Memcpy",
+               "Memset")),
+)
+
+
+def kernel_shares(times: list[tuple[str, float]]) -> dict[str, float]:
+    """Share of the summed kernel time per kind (:data:`KERNEL_KINDS`, the rest: "other physics"), largest first."""
+    total = sum(t for _, t in times) or 1.0
+    shares: dict[str, float] = {}
+    for name, t in times:
+        kind = next((k for k, frags in KERNEL_KINDS if any(f in name for f in frags)), "other physics")
+        shares[kind] = shares.get(kind, 0.0) + t / total
+    return dict(sorted(shares.items(), key=lambda kv: -kv[1]))
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", default="mt50_rand", help="env preset (conf/env) or task list for env.name")
@@ -130,6 +151,8 @@ def main(argv: list[str] | None = None) -> None:
         launches = sum(e.count for e in kernels) / horizon
         print(f"profiled rollout: {wall_ms:.2f} ms/step wall, {busy:.2f} ms/step of kernel time (summed over "
               f"streams), {launches:.0f} kernels/step")
+        shares = kernel_shares([(e.key, e.self_device_time_total) for e in kernels])
+        print("kernel time by kind: " + ", ".join(f"{kind} {share:.1%}" for kind, share in shares.items()))
     cpu_ms = sum(e.self_cpu_time_total for e in events) / horizon / 1e3
     print(f"profiled rollout: host time in torch ops {cpu_ms:.2f} ms/step")
     trainer.env.close()
