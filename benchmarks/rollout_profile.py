@@ -40,6 +40,7 @@ sys.path.insert(0, str(ROOT))
 
 from mtbench.trainer import build_trainer, resolve_device  # noqa: E402
 from mtbench.trainer.rollout import base_env  # noqa: E402
+from mtbench.trainer.run import parkour_arch_overrides  # noqa: E402
 from _timing import median_ms, sync  # noqa: E402
 
 
@@ -89,6 +90,9 @@ def main(argv: list[str] | None = None) -> None:
         "checkpoint.save_final=false", f"checkpoint.dir={tempfile.mkdtemp(prefix='mtbench-rollout-profile-')}",
         *args.override,
     ]
+    overrides, note = parkour_arch_overrides(overrides)  # the Go1 preset of the arch, as examples/train.py does
+    if note:
+        print(note)
     with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
         cfg = compose("config", overrides=overrides)
     t = time.perf_counter()
