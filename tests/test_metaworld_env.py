@@ -10,23 +10,11 @@ from torchrl.envs.utils import check_env_specs
 from mtbench.envs import make_env, split_envs
 from mtbench.envs.metaworld import TASKS
 from mtbench.envs.metaworld.env import STATE_DIM
-
-
-def _random_actions(env, steps: int, seed: int) -> torch.Tensor:
-    g = torch.Generator().manual_seed(seed)
-    return torch.rand(steps, env.batch_size[0], 4, generator=g) * 2 - 1
+from metaworld_rollout import random_actions, rollout
 
 
 def _run(env, actions: torch.Tensor):
-    td = env.reset()
-    obs, rewards, dones = [td["observation"]], [], []
-    for a in actions:
-        td["action"] = a
-        out, td = env.step_and_maybe_reset(td)
-        obs.append(td["observation"])
-        rewards.append(out["next", "reward"])
-        dones.append(out["next", "done"])
-    return torch.stack(obs), torch.stack(rewards), torch.stack(dones)
+    return rollout(env, actions)[1:4]  # observations, rewards, dones
 
 
 def test_check_env_specs_two_tasks() -> None:
@@ -54,7 +42,7 @@ def test_observation_layout_and_task_ids() -> None:
 
 def test_autoreset_episode_length_and_statistics() -> None:
     env = make_env("reach", num_envs=4, device="cpu", seed=0, episode_length=10, random_start_progress=False)
-    obs, rewards, dones = _run(env, _random_actions(env, 25, 0))
+    obs, rewards, dones = _run(env, random_actions(env, 25, 0))
     done_steps = dones[:, :, 0].all(dim=1).nonzero().flatten().tolist()
     assert done_steps == [9, 19]
     assert int(dones.sum()) == 8  # only at the truncation steps
@@ -83,7 +71,7 @@ def test_torchrl_native_autoreset_path_is_used() -> None:
 
 def test_random_start_progress_skips_partial_first_episodes() -> None:
     env = make_env("reach", num_envs=16, device="cpu", seed=3, episode_length=20)
-    _, _, dones = _run(env, _random_actions(env, 30, 1))
+    _, _, dones = _run(env, random_actions(env, 30, 1))
     stats = env.pop_episode_stats()
     # every world finished its (shortened) first episode; the ones that started at step 0 finished a full one
     assert int(dones.sum()) >= 16
@@ -94,7 +82,7 @@ def test_seeded_runs_are_reproducible() -> None:
     a = make_env("reach", num_envs=3, device="cpu", seed=7, episode_length=15)
     b = make_env("reach", num_envs=3, device="cpu", seed=7, episode_length=15)
     c = make_env("reach", num_envs=3, device="cpu", seed=8, episode_length=15)
-    actions = _random_actions(a, 40, 2)
+    actions = random_actions(a, 40, 2)
     oa, ra, _ = _run(a, actions)
     ob, rb, _ = _run(b, actions)
     oc, _, _ = _run(c, actions)
@@ -107,8 +95,8 @@ def test_fixed_goals_persist_and_rand_goals_change() -> None:
                      random_start_progress=False)
     rand = make_env("reach", num_envs=4, device="cpu", seed=1, rand=True, episode_length=5,
                     random_start_progress=False)
-    of, _, _ = _run(fixed, _random_actions(fixed, 12, 0))
-    orr, _, _ = _run(rand, _random_actions(rand, 12, 0))
+    of, _, _ = _run(fixed, random_actions(fixed, 12, 0))
+    orr, _, _ = _run(rand, random_actions(rand, 12, 0))
     goals_f, goals_r = of[:, :, 36:39], orr[:, :, 36:39]
     assert torch.equal(goals_f[0], goals_f[5]) and torch.equal(goals_f[0], goals_f[10])
     assert len({tuple(g.tolist()) for g in goals_f[0]}) == 4  # each world has its own goal
@@ -118,7 +106,7 @@ def test_fixed_goals_persist_and_rand_goals_change() -> None:
 def test_reward_scale_applies_to_dense_steps_only() -> None:
     kw = dict(num_envs=4, device="cpu", seed=5, random_start_progress=False)
     env100, env50 = make_env("reach", reward_scale=100.0, **kw), make_env("reach", reward_scale=50.0, **kw)
-    actions = _random_actions(env100, 8, 3) * 0.2
+    actions = random_actions(env100, 8, 3) * 0.2
     _, r100, _ = _run(env100, actions)
     _, r50, _ = _run(env50, actions)
     dense = r100 < 10.0
@@ -175,7 +163,7 @@ def test_split_envs_matches_mtbench() -> None:
 def test_state_dict_round_trip_continues_the_same_trajectories() -> None:
     kw = dict(num_envs=3, device="cpu", episode_length=12)
     a = make_env("reach", seed=4, **kw)
-    actions = _random_actions(a, 30, 9)
+    actions = random_actions(a, 30, 9)
     td = a.reset()
     for act in actions[:17]:
         td["action"] = act
@@ -317,7 +305,7 @@ def test_compiled_stages_give_the_eager_steps() -> None:
     plain = make_env(["push", "pick_place_wall"], **kwargs)
     compiled = make_env(["push", "pick_place_wall"], compile_stages=True, **kwargs)
     assert all(hasattr(stage.fn, "_torchdynamo_orig_callable") for stage in compiled._stages if stage.name != "place_objects")
-    actions = _random_actions(plain, 30, seed=2)
+    actions = random_actions(plain, 30, seed=2)
     (obs_a, rew_a, done_a), (obs_b, rew_b, done_b) = _run(plain, actions), _run(compiled, actions)
     assert torch.equal(done_a, done_b) and bool(done_a.any())
     torch.testing.assert_close(obs_b, obs_a, atol=1e-5, rtol=1e-5)
