@@ -10,6 +10,7 @@ from mtbench.envs import make_env
 from mtbench.envs.metaworld.env import MetaWorldEnv
 from mtbench.envs.metaworld.models import compiled_task, physics_groups
 from mtbench.sim import UngroupableModels, WarpSim, WarpSimSlice, groupable
+from metaworld_rollout import random_actions, rollout
 
 # a strict group of 3 (site_pos differs), one of 2 with identical models, one of 2 whose bodies differ, one of 2
 # whose bodies and keyframes (the arm's home pose and the mocap target) differ, and a task alone
@@ -21,24 +22,6 @@ GROUPS = [[0, 1, 2], [3, 4], [5, 6], [7, 8], [9]]
 def _env(group_models: bool, seed: int = 3, tasks=TASKS) -> MetaWorldEnv:
     return make_env(tasks, num_envs=[2] * len(tasks), device="cpu", seed=seed, rand=True, episode_length=25,
                     group_models=group_models)
-
-
-def _actions(env, steps: int, seed: int) -> torch.Tensor:
-    g = torch.Generator().manual_seed(seed)
-    return torch.rand(steps, env.batch_size[0], 4, generator=g) * 2 - 1
-
-
-def _run(env, actions, td=None):
-    td = env.reset() if td is None else td
-    obs, rewards, dones, success = [td["observation"]], [], [], []
-    for a in actions:
-        td["action"] = a
-        out, td = env.step_and_maybe_reset(td)
-        obs.append(td["observation"])
-        rewards.append(out["next", "reward"])
-        dones.append(out["next", "done"])
-        success.append(env._ep_success.clone())
-    return td, torch.stack(obs), torch.stack(rewards), torch.stack(dones), torch.stack(success)
 
 
 def _assert_same(a, b):
@@ -53,8 +36,8 @@ def test_grouped_models_give_the_same_trajectories() -> None:
     assert grouped.model_groups == GROUPS and len(grouped.sims) == len(GROUPS) < len(TASKS)
     assert [s.nworld for s in grouped.sims] == [6, 4, 4, 4, 2]
     assert isinstance(grouped.blocks[0][1].sim, WarpSimSlice) and isinstance(grouped.blocks[9][1].sim, WarpSim)
-    actions = _actions(plain, 60, 11)  # episode_length 25: past two resets of every world
-    a, b = _run(plain, actions)[1:], _run(grouped, actions)[1:]
+    actions = random_actions(plain, 60, 11)  # episode_length 25: past two resets of every world
+    a, b = rollout(plain, actions)[1:], rollout(grouped, actions)[1:]
     _assert_same(a, b)
     assert a[2].any()  # resets happened
     sa, sb = plain.pop_episode_stats(), grouped.pop_episode_stats()
@@ -64,14 +47,14 @@ def test_grouped_models_give_the_same_trajectories() -> None:
 
 def test_grouped_state_dict_round_trip() -> None:
     a = _env(True)
-    actions = _actions(a, 50, 5)
-    td, *_ = _run(a, actions[:20])
+    actions = random_actions(a, 50, 5)
+    td, *_ = rollout(a, actions[:20])
     state = a.state_dict()
     assert "sims" in state["_extra_state"] and len(state["_extra_state"]["sims"]) == len(GROUPS)
     b = _env(True, seed=99)  # different seed: everything must come from the state
     b.load_state_dict(state)
-    out_a = _run(a, actions[20:], td.clone())[1:]
-    out_b = _run(b, actions[20:], td.clone())[1:]
+    out_a = rollout(a, actions[20:], td.clone())[1:]
+    out_b = rollout(b, actions[20:], td.clone())[1:]
     # same tolerance as the ungrouped round trip (derived solver buffers are recomputed, not stored)
     for name, x, y in zip(("observation", "reward", "done", "success"), out_a, out_b):
         if x.dtype == torch.bool:
@@ -103,9 +86,10 @@ def test_tasks_of_one_group_need_not_be_adjacent() -> None:
     """A group's worlds are gathered from non-adjacent task ranges of the env (its sim keeps them contiguous)."""
     tasks = ["pick_place", "drawer_open", "push", "drawer_close", "reach", "door_lock"]
     plain, grouped = _env(False, tasks=tasks), _env(True, tasks=tasks)
-    assert grouped.model_groups == [[0, 2, 4], [1, 3], [5]] and not grouped._sims_in_world_order
-    actions = _actions(plain, 60, 4)
-    a, b = _run(plain, actions)[1:], _run(grouped, actions)[1:]
+    assert grouped.model_groups == [[0, 2, 4], [1, 3], [5]]
+    assert all(isinstance(w, torch.Tensor) for w in grouped._sim_worlds[:2])  # gathered from non-adjacent ranges
+    actions = random_actions(plain, 60, 4)
+    a, b = rollout(plain, actions)[1:], rollout(grouped, actions)[1:]
     _assert_same(a, b)
     assert a[2].any()
 
@@ -117,8 +101,8 @@ def test_grouped_env_renders_as_one_model_per_task() -> None:
     tasks = ["drawer_open", "reach", "drawer_close"]
     plain, grouped = _env(False, tasks=tasks), _env(True, tasks=tasks)
     assert grouped.model_groups == [[0, 2], [1]]
-    actions = _actions(plain, 5, 2)
-    _run(plain, actions), _run(grouped, actions)
+    actions = random_actions(plain, 5, 2)
+    rollout(plain, actions), rollout(grouped, actions)
     a = EnvRenderer(plain, 32, 24, worlds_per_task=2).render()
     b = EnvRenderer(grouped, 32, 24, worlds_per_task=2).render()
     assert a.shape == b.shape == (3, 2, 24, 32, 3)

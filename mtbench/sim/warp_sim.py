@@ -449,24 +449,18 @@ class WarpSim:
                                                                    and src.shape[0] != dst.shape[1]):
                     continue
                 dst[sl] = torch.as_tensor(src, device=self.device).to(dst.dtype).reshape(dst.shape[1:])
-            for body, (ids, _) in self._static_geoms.items():
-                offsets[body].append(self._geom_offsets(m, body, ids).expand(count, -1, -1))
+            for body, (_, offset) in self._static_geom_table(m).items():  # same bodies and geoms: one tree
+                offsets[body].append(offset.expand(count, -1, -1))
             start += count
         self._static_geoms = {body: (ids, torch.cat(offsets[body])) for body, (ids, _) in self._static_geoms.items()}
         self._world_key = torch.cat(key_base)
         if self.device.type == "cuda":  # the writes above (torch's stream) before the sim's stream reads them
             torch.cuda.synchronize(self.device)
 
-    def _geom_offsets(self, m: mujoco.MjModel, body: int, ids: torch.Tensor) -> torch.Tensor:
-        d = mujoco.MjData(m)
-        mujoco.mj_kinematics(m, d)
-        idx = ids.cpu().numpy()
-        return torch.tensor(d.geom_xpos[idx] - d.xpos[body], dtype=torch.float32,
-                            device=self.device).reshape(1, -1, 3)
-
-    def _static_geom_table(self) -> dict[int, tuple[torch.Tensor, torch.Tensor]]:
-        """For every world-fixed body: its subtree's world-fixed geoms and their offsets from the body."""
-        m = self.mjm
+    def _static_geom_table(self, m: mujoco.MjModel | None = None) -> dict[int, tuple[torch.Tensor, torch.Tensor]]:
+        """For every world-fixed body of ``m`` (default: the sim's model): its subtree's world-fixed geoms and
+        their offsets from the body."""
+        m = self.mjm if m is None else m
         d = mujoco.MjData(m)
         mujoco.mj_kinematics(m, d)
         table = {}

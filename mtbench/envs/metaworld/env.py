@@ -210,8 +210,6 @@ class MetaWorldEnv(EnvBase):
         self._done = torch.zeros(num_envs, dtype=torch.bool, device=dev)
         self._obs = torch.zeros(num_envs, STATE_DIM + self.num_tasks, device=dev)
         self._sims = sims
-        self._sims_in_world_order = all(isinstance(w, slice) for w in self._sim_worlds) and [
-            w.start for w in self._sim_worlds] == sorted(w.start for w in self._sim_worlds)
         enabled = torch_graphs and dev.type == "cuda"
         pool = torch.cuda.graph_pool_handle() if enabled else None
         stream = torch.cuda.Stream(device=dev) if enabled else None
@@ -364,10 +362,9 @@ class MetaWorldEnv(EnvBase):
         self._refresh_kinematic_quantities()
         frame = self._frames()
         reward, success = self._evaluate(self._action)
-        if self._sims_in_world_order:
-            unhealthy = torch.cat([sim.unhealthy() for sim in self._sims])
-        else:  # grouped tasks that are not adjacent: per task, in the env's world order
-            unhealthy = torch.cat([s.sim.unhealthy() for _, s in self.blocks])
+        unhealthy = torch.empty_like(self._done)
+        for sim, worlds in zip(self._sims, self._sim_worlds):  # each sim once, into the env's world order
+            unhealthy[worlds] = sim.unhealthy()
         reward = torch.where(torch.isfinite(reward) & ~unhealthy, reward, torch.zeros_like(reward))
         self._step_count += 1
         self._ep_return += reward
