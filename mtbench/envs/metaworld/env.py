@@ -503,7 +503,8 @@ class MetaWorldEnv(EnvBase):
         if saved_groups != self.model_groups:
             raise RuntimeError(f"env state was saved with physics blocks {saved_groups} (group_models="
                                f"{'model_groups' in state}), this env has {self.model_groups} (group_models="
-                               f"{self.group_models})")
+                               f"{self.group_models}); build the env with group_models={'model_groups' in state} "
+                               f"(in a training config: env.overrides.group_models={str('model_groups' in state).lower()})")
         for k, v in state["episode"].items():
             getattr(self, k).copy_(v)
         if "sims" in state:
