@@ -108,3 +108,21 @@ def test_grouped_env_renders_as_one_model_per_task() -> None:
     assert a.shape == b.shape == (3, 2, 24, 32, 3)
     assert (a.int() - b.int()).abs().max() <= 1
     assert not torch.equal(b[0], b[2])  # drawer_open's and drawer_close's own worlds, not the same ones twice
+
+
+def test_mt_configs_group_where_it_was_measured_faster() -> None:
+    """conf/env: MT50 groups its 50 tasks into the 30 blocks measured faster on the GPU; MT10 keeps 10 blocks
+    (grouped, 6, was slower there; docs/benchmarks.md §6)."""
+    from pathlib import Path
+
+    from omegaconf import OmegaConf
+
+    from mtbench.envs.metaworld.registry import MT10, MT50
+
+    conf = Path(__file__).resolve().parents[1] / "conf" / "env"
+    setting = {name: OmegaConf.load(conf / f"{name}.yaml").overrides.group_models
+               for name in ("mt10", "mt10_rand", "mt50", "mt50_rand")}
+    assert setting == {"mt10": False, "mt10_rand": False, "mt50": True, "mt50_rand": True}
+    blocks = physics_groups([compiled_task(t)[1] for t in MT50])
+    assert len(blocks) == 30 and sorted(i for b in blocks for i in b) == list(range(50))
+    assert len(physics_groups([compiled_task(t)[1] for t in MT10])) == 6
