@@ -293,6 +293,10 @@ def test_mt50_settings_pass_torchrl_spec_checks() -> None:
     check_env_specs(env)
     fixed = make_env("mt50", num_envs=100, device="cpu", seed=0)
     assert not fixed.rand and fixed.task_counts == [2] * 50
+    # the layout conf/env/mt50*.yaml select: 30 shared physics models
+    grouped = make_env("mt50_rand", num_envs=50, device="cpu", seed=0, group_models=True)
+    assert len(grouped.sims) == 30
+    check_env_specs(grouped)
     # the paper's split of 24,576 worlds over MT50
     assert split_envs(24576, 50) == [492] * 26 + [491] * 24
 
