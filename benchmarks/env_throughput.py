@@ -19,11 +19,15 @@ place on their tiles, fall, time out and reset as in training. ``--terrain-colli
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 4096 --device cuda
     python benchmarks/env_throughput.py --env mt10_rand --num-envs 24576 --policy scripted
     python benchmarks/env_throughput.py --env parkour_hard --num-envs 16384
-    python benchmarks/env_throughput.py --env mt50_rand --num-envs 24576 --compile-stages --phases
+    python benchmarks/env_throughput.py --env mt50_rand --num-envs 24576 --phases   # compiled + grouped (its config)
+    python benchmarks/env_throughput.py --env mt50_rand --num-envs 24576 --no-compile-stages --no-group-models
     python benchmarks/env_throughput.py --env reach,push,pick_place --num-envs 24576 --phases   # a custom task set
 
-``--compile-stages`` compiles the Meta-World env's torch stages (``compile_stages=True``; the compile time is
-reported as "first step s"); ``--phases`` also times each part of a Meta-World step on its own (synchronised
+Meta-World settings with a Hydra env config (``conf/env/mt10*.yaml``, ``conf/env/mt50*.yaml``) are measured as
+``env=<setting>`` builds them: ``compile_stages`` and ``group_models`` come from the config (``compile_stages:
+auto`` = on for CUDA; MT50 groups its tasks, MT10 does not) unless ``--[no-]compile-stages`` / ``--[no-]group-models``
+say otherwise; task lists default to neither. ``--compile-stages`` compiles the Meta-World env's torch stages (the
+compile time is reported as "first step s"); ``--phases`` also times each part of a Meta-World step on its own (synchronised
 before and after: the torch stages and the physics launches of every block), to show where a step's time goes.
 """
 
@@ -32,9 +36,11 @@ from __future__ import annotations
 import argparse
 import platform
 import time
+from pathlib import Path
 
 import torch
 import warp as wp
+from omegaconf import OmegaConf
 from tensordict import TensorDictBase
 
 from mtbench.envs import make_env
@@ -44,6 +50,16 @@ from mtbench.envs.parkour.settings import SETTINGS as PARKOUR_SETTINGS
 from mtbench.envs.parkour.terrains import TERRAIN_NAMES as PARKOUR_TERRAINS
 from parkour_collision import TROT_HZ, controller_targets
 from _timing import sync
+
+
+def config_settings(env_name: str) -> dict[str, bool | str]:
+    """``compile_stages`` (True, False or ``"auto"``: on for CUDA) and ``group_models`` of ``conf/env/<env_name>.yaml``,
+    as ``env=<env_name>`` builds the env; ``{}`` for a name without such a config."""
+    path = Path(__file__).resolve().parents[1] / "conf" / "env" / f"{env_name}.yaml"
+    if is_parkour(env_name) or not path.is_file():
+        return {}
+    overrides = OmegaConf.load(path).get("overrides") or {}
+    return {"compile_stages": overrides.get("compile_stages", False), "group_models": overrides.get("group_models", False)}
 
 
 def is_parkour(env_name: str) -> bool:
@@ -125,7 +141,7 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
             parallel_streams: bool = True, torch_graphs: bool = True, policy: str = "random",
             robot_collision: str = "primitive", box_box: str = "primitive",
             terrain_collision: str = parkour_robot.DEFAULT_TERRAIN_COLLISION, terrain_representation: str = "grid",
-            num_rows: int = 10, compile_stages: bool = False, phases: bool = False, group_models: bool = False,
+            num_rows: int = 10, compile_stages: bool | str = False, phases: bool = False, group_models: bool = False,
             robot_joints: tuple[str, float | None, str] = (parkour_robot.DEFAULT_INERTIAL_MODEL, None,
                                                            parkour_robot.DEFAULT_INTEGRATOR)) -> dict:
     parkour = is_parkour(env_name)
@@ -167,7 +183,7 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         elapsed, steps, contacts, stats = run_timed(env, steps, warmup, policy)
         success = float("nan")
     mode = "torch stages graphed" if torch_graphs and env.device.type == "cuda" else "torch stages eager"
-    if compile_stages:
+    if getattr(env, "compile_stages", False):
         mode += ", compiled"
     if not parkour:
         mode += ", block streams" if parallel_streams else ", one stream"
@@ -221,14 +237,23 @@ def main() -> None:
                         help="Parkour: joint armature in kg m^2 (default: the inertial model's)")
     parser.add_argument("--robot-integrator", choices=tuple(parkour_robot.INTEGRATORS),
                         default=parkour_robot.DEFAULT_INTEGRATOR, help="Parkour: euler or implicitfast")
-    parser.add_argument("--compile-stages", action="store_true", help="Meta-World: torch.compile the env's torch stages")
-    parser.add_argument("--group-models", action="store_true",
-                        help="Meta-World: tasks whose models MuJoCo Warp can batch share one model (group_models=True)")
+    parser.add_argument("--compile-stages", action=argparse.BooleanOptionalAction, default=None,
+                        help="Meta-World: torch.compile the env's torch stages (default: the env config's setting)")
+    parser.add_argument("--group-models", action=argparse.BooleanOptionalAction, default=None,
+                        help="Meta-World: tasks whose models MuJoCo Warp can batch share one model (group_models=True; "
+                             "default: the env config's setting)")
     parser.add_argument("--phases", action="store_true",
                         help="Meta-World: also time each part of a step on its own (ms per step)")
     args = parser.parse_args()
     if args.policy is None:
         args.policy = "trot" if is_parkour(args.env) else "random"
+    configured = config_settings(args.env)
+    for key in ("compile_stages", "group_models"):
+        if getattr(args, key) is None:
+            setattr(args, key, configured.get(key, False))
+    if configured:
+        print(f"settings: compile_stages={args.compile_stages!r} ('auto': on for CUDA), group_models={args.group_models} "
+              f"(conf/env/{args.env}.yaml unless --[no-]compile-stages / --[no-]group-models say otherwise)")
     name = torch.cuda.get_device_name() if args.device.startswith("cuda") else platform.processor() or "cpu"
     print(f"device: {name}; torch {torch.__version__}; date {time.strftime('%Y-%m-%d')}")
     print("| env | envs | policy | collision | mode | substeps | env steps/s | physics steps/s | ms/step | "
