@@ -3,10 +3,13 @@ its parts run alone, and a torch.profiler table of one rollout.
 
     CUDA_DEVICE_MAX_CONNECTIONS=32 python benchmarks/rollout_profile.py --env mt50_rand --num-envs 24576
     python benchmarks/rollout_profile.py --env mt10_rand --num-envs 24576 --loss pqn --arch residual_mlp
+    python benchmarks/rollout_profile.py --env parkour_easy --num-envs 4096 --warmup 60 --override pretrained=<ckpt>
     python benchmarks/rollout_profile.py --env mt10_rand --num-envs 20 --device cpu --threads 1   # plumbing only
 
-Built on the real training stack (conf/ + ``build_trainer``, the env's default ``compile_stages``). Two rollouts
-warm up (CUDA graph capture, compilation). Then, in ms per env step (host-synchronised where named):
+Built on the real training stack (conf/ + ``build_trainer``, the env's default ``compile_stages``). ``--warmup``
+rollouts (default 2) warm up (CUDA graph capture, compilation); more of them spread the worlds over their episodes
+as in training (Parkour: a step costs more the further the robots are into their terrains; ``--override
+pretrained=<checkpoint>`` profiles a trained policy). Then, in ms per env step (host-synchronised where named):
 
 * ``rollout``: ``trainer.collect()`` (what training times as collection), synchronised once at its end;
 * ``policy``: the policy module on the rollout's TensorDict, alone (synchronised before and after);
@@ -72,14 +75,16 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--loss", default="ppo", choices=["ppo", "grpo", "pqn"])
     p.add_argument("--arch", default="mlp", help="conf/arch preset")
     p.add_argument("--device", default="auto")
+    p.add_argument("--warmup", type=int, default=2,
+                   help="rollouts before the timed ones (more: worlds spread over their episodes, as in training)")
     p.add_argument("--rollouts", type=int, default=3, help="timed rollouts")
     p.add_argument("--steps", type=int, default=20, help="timed repetitions of each part")
     p.add_argument("--rows", type=int, default=25, help="rows of each profiler table")
     p.add_argument("--threads", type=int, default=None, help="torch.set_num_threads")
     p.add_argument("--override", action="append", default=[], help="extra Hydra override (repeatable)")
     args = p.parse_args(argv)
-    if args.num_envs < 1 or args.rollouts < 1 or args.steps < 1:
-        p.error("--num-envs, --rollouts and --steps must be >= 1")
+    if args.num_envs < 1 or args.rollouts < 1 or args.steps < 1 or args.warmup < 1:
+        p.error("--num-envs, --warmup, --rollouts and --steps must be >= 1")
     if args.threads is not None:
         torch.set_num_threads(args.threads)
     device = resolve_device(args.device)
@@ -97,12 +102,12 @@ def main(argv: list[str] | None = None) -> None:
         cfg = compose("config", overrides=overrides)
     t = time.perf_counter()
     trainer = build_trainer(cfg)
-    for _ in range(2):
+    for _ in range(args.warmup):
         trainer.collect()
     sync(device)
     horizon = trainer.horizon
     print(f"rollout profile | {args.env} envs={trainer.num_envs} loss={args.loss} arch={args.arch} horizon={horizon} "
-          f"device={device} | setup + 2 warm-up rollouts {time.perf_counter() - t:.1f} s", flush=True)
+          f"device={device} | setup + {args.warmup} warm-up rollouts {time.perf_counter() - t:.1f} s", flush=True)
 
     rollout_ms = []
     for _ in range(args.rollouts):
