@@ -31,6 +31,7 @@ class SyntheticMTEnv(EnvBase):
             value normalisation.
         success_radius: per-task success radius (default 0.25).
         random_initial_progress: desynchronise the episode clocks at the first reset (as MTBench does).
+        terminate_on_success: end an episode (terminated) at its first success step.
         nan_reward_at_step: if set, the reward of env 0 is NaN at that (0-based) step count of the env —
             a stand-in for a physics blow-up.
         device: torch device.
@@ -47,6 +48,7 @@ class SyntheticMTEnv(EnvBase):
         success_radius: Sequence[float] | float = 0.25,
         random_initial_progress: bool = True,
         nan_reward_at_step: int | None = None,
+        terminate_on_success: bool = False,
         task_names: Sequence[str] | None = None,
         device: torch.device | str = "cpu",
         seed: int = 0,
@@ -66,6 +68,7 @@ class SyntheticMTEnv(EnvBase):
         self.max_episode_steps = int(max_episode_steps)
         self.random_initial_progress = random_initial_progress
         self.nan_reward_at_step = nan_reward_at_step
+        self.terminate_on_success = bool(terminate_on_success)
         dev = self.device
         if reward_scales is None:
             reward_scales = [10.0 ** (i % 3) for i in range(k)]
@@ -91,6 +94,7 @@ class SyntheticMTEnv(EnvBase):
         self.register_buffer("steps", torch.zeros(n, dtype=torch.long, device=dev))
         self.register_buffer("ep_return", torch.zeros(n, device=dev))
         self.register_buffer("ep_success", torch.zeros(n, dtype=torch.bool, device=dev))
+        self.register_buffer("ep_counted", torch.ones(n, dtype=torch.bool, device=dev))
         self.register_buffer("global_step", torch.zeros((), dtype=torch.long, device=dev))
         self.register_buffer("acc", torch.zeros(4, k, device=dev))  # episodes, success, return, length
         self.rng = torch.Generator(device=dev)
@@ -128,6 +132,7 @@ class SyntheticMTEnv(EnvBase):
         self.steps.copy_(torch.where(mask, start, self.steps))
         self.ep_return.masked_fill_(mask, 0.0)
         self.ep_success.masked_fill_(mask, False)
+        self.ep_counted |= mask
 
     # ------------------------------------------------------------------ EnvBase API
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
@@ -160,23 +165,24 @@ class SyntheticMTEnv(EnvBase):
         self.global_step.add_(1)
         self.ep_return.add_(reward)
         self.ep_success.logical_or_(success)
-        truncated = self.steps >= self.max_episode_steps
-        # per-task statistics of the episodes that end now (no host sync)
-        fin = truncated.float()
+        terminated = success & self.terminate_on_success
+        truncated = (self.steps >= self.max_episode_steps) & ~terminated
+        ended = terminated | truncated
+        # per-task statistics of the counted episodes that end now (no host sync)
+        fin = (ended & self.ep_counted).float()
         self.acc[0].index_add_(0, self.task_id, fin)
         self.acc[1].index_add_(0, self.task_id, fin * self.ep_success.float())
         self.acc[2].index_add_(0, self.task_id, fin * self.ep_return)
         self.acc[3].index_add_(0, self.task_id, fin * self.steps.float())
-        self._reset_rows(truncated)
-        trunc = truncated.unsqueeze(-1)
+        self._reset_rows(ended)
         return TensorDict(
             {
                 "observation": self._obs(),
                 "task_id": self.task_id.clone(),
                 "reward": reward.unsqueeze(-1),
-                "done": trunc.clone(),
-                "terminated": torch.zeros_like(trunc),
-                "truncated": trunc,
+                "done": ended.unsqueeze(-1),
+                "terminated": terminated.unsqueeze(-1),
+                "truncated": truncated.unsqueeze(-1),
             },
             batch_size=self.batch_size,
             device=self.device,
@@ -185,6 +191,10 @@ class SyntheticMTEnv(EnvBase):
     def _set_seed(self, seed: int | None) -> None:
         if seed is not None:
             self.rng.manual_seed(seed)
+
+    def exclude_episodes(self, mask: torch.Tensor) -> None:
+        """Leave the current episodes of ``mask``'s worlds out of the statistics (mtbench env contract)."""
+        self.ep_counted &= ~mask.reshape(-1)
 
     def pop_episode_stats(self) -> TensorDict:
         """Per-task sums since the last call: ``episodes``, ``success``, ``return``, ``length`` ([K] each)."""

@@ -188,6 +188,28 @@ def test_run_episodes_counts_full_episodes_per_task() -> None:
     assert all(0.0 <= s <= 1.0 for s in result.success) and result.metric == "success"
 
 
+def test_run_episodes_counts_only_the_first_episode_of_every_world() -> None:
+    # every step succeeds and ends the episode (radius 10): a 5-step pass ends 5 episodes per world, of which
+    # only the first counts (MTBench's player: the first episode of every env)
+    env = SyntheticMTEnv([2, 3, 2], max_episode_steps=5, random_initial_progress=False, seed=0,
+                         success_radius=10.0, terminate_on_success=True)
+
+    def policy(td, deterministic):
+        return torch.zeros(td.batch_size[0], env.action_dim)
+
+    result = run_episodes(env, policy, episodes=2, deterministic=True, seed=0)
+    assert result.episodes == [2, 3, 2]
+    assert result.lengths == [1.0, 1.0, 1.0] and result.success == [1.0, 1.0, 1.0]
+    # the env counts every episode when nobody excludes any: 5 per world in the same 5 steps
+    env.reset()
+    env.pop_episode_stats()
+    td = env.reset()
+    for _ in range(5):
+        td.set("action", policy(td, True))
+        _, td = env.step_and_maybe_reset(td)
+    assert env.pop_episode_stats()["episodes"].tolist() == [10.0, 15.0, 10.0]
+
+
 def test_run_episodes_resets_a_stateful_policy_after_every_env_reset() -> None:
     env = SyntheticMTEnv([2, 3, 2], max_episode_steps=5, random_initial_progress=False, seed=0)
     calls: list[str] = []

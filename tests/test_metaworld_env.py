@@ -286,6 +286,21 @@ def test_paper_rewards_use_the_original_tolerance_and_v2_the_correct_one() -> No
     assert differ > 0
 
 
+def test_excluded_episodes_are_left_out_of_the_statistics() -> None:
+    env = make_env(["reach", "push"], num_envs=[2, 2], device="cpu", seed=0, episode_length=3,
+                   random_start_progress=False)
+    td = env.reset()
+    for _ in range(3):
+        td.set("action", torch.zeros(env.action_spec.shape))
+        _, td = env.step_and_maybe_reset(td)
+    assert env.pop_episode_stats()["episodes"].tolist() == [2.0, 2.0]
+    env.exclude_episodes(torch.tensor([True, False, True, True]))
+    for _ in range(3):
+        td.set("action", torch.zeros(env.action_spec.shape))
+        _, td = env.step_and_maybe_reset(td)
+    assert env.pop_episode_stats()["episodes"].tolist() == [1.0, 0.0]
+
+
 def test_mt50_settings_pass_torchrl_spec_checks() -> None:
     env = make_env("mt50_rand", num_envs=50, device="cpu", seed=0)
     assert env.num_tasks == 50 and env.rand and env.task_counts == [1] * 50

@@ -441,6 +441,22 @@ def test_first_episodes_start_at_random_progress_and_are_not_counted() -> None:
     assert stats["length"][FLAT] == 6 * int((start == 0).sum())
 
 
+def test_excluded_episodes_are_left_out_of_the_statistics() -> None:
+    env = _env(columns=("flat",), num_rows=1, n=4, episode_length=3)
+    td = env.reset()
+    for _ in range(3):
+        _, td = _step(env, td)
+    assert env.pop_episode_stats()["episodes"][FLAT] == 4
+    env.exclude_episodes(torch.tensor([True, False, True, False]))  # their second episodes
+    for _ in range(3):
+        _, td = _step(env, td)
+    stats = env.pop_episode_stats()
+    assert stats["episodes"][FLAT] == 2 and stats["length"][FLAT] == 6
+    for _ in range(3):  # the third episodes count again
+        _, td = _step(env, td)
+    assert env.pop_episode_stats()["episodes"][FLAT] == 4
+
+
 def test_checkpoint_round_trip_continues_the_same_trajectories() -> None:
     kw = dict(columns=("flat", "box_jump_even"), num_rows=2, n=4, curriculum=True, push_robots=True,
               random_start_progress=True, episode_length=9)

@@ -91,8 +91,10 @@ def run_episodes(
     """Evaluate ``policy`` for at least ``episodes`` full episodes per task.
 
     Every pass resets all worlds (the env must start them at step 0, i.e. ``random_start_progress=False``) and
-    runs ``env.max_episode_steps`` steps: each world finishes exactly one episode (more only if the env ended
-    one early, e.g. after a physics failure). With ``episodes`` worlds per task one pass suffices; otherwise
+    runs ``env.max_episode_steps`` steps: each world finishes one episode, and only that first episode is counted
+    (an env with ``exclude_episodes``, as mtbench's are, leaves out the episodes that worlds start after an early
+    end -- a fall, a physics failure -- which would otherwise weigh the short failed episodes several times;
+    MTBench's player also counts the first episode of every env). With ``episodes`` worlds per task one pass suffices; otherwise
     passes repeat until every task has ``episodes`` episodes (tasks with more worlds finish more). The env's
     reset sampler and torch's generator are seeded with ``seed`` first, so two evaluations with the same seed
     see the same initial worlds. ``on_step(pass, t)`` is called before the action of step ``t`` (e.g. to render
@@ -115,11 +117,17 @@ def run_episodes(
         reset_policy = getattr(policy, "reset", None)
         if callable(reset_policy):  # a stateful policy (e.g. a PQN policy holding its action) starts afresh
             reset_policy()
+        exclude = getattr(env, "exclude_episodes", None)
+        finished = None  # worlds whose first episode of this pass has ended (on the device)
         for t in range(steps):
             if on_step is not None:
                 on_step(p, t)
             td.set("action", policy(td, deterministic))
-            _, td = env.step_and_maybe_reset(td)
+            out, td = env.step_and_maybe_reset(td)
+            if callable(exclude):
+                done = out.get(("next", "done")).reshape(-1)
+                finished = done if finished is None else finished | done
+                exclude(finished)
         stats = env.pop_episode_stats()
         for key in (*STAT_KEYS, *EXTRA_STAT_KEYS):
             if key in stats.keys():

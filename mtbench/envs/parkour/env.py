@@ -567,6 +567,12 @@ class ParkourEnv(EnvBase):
         self._read_state()
 
     # ------------------------------------------------------------------ statistics
+    def exclude_episodes(self, mask: torch.Tensor) -> None:
+        """Leave the current episodes of the worlds in ``mask`` ([N] bool) out of :meth:`pop_episode_stats` (their
+        next episodes count again): an evaluation counting only the first episode of every world calls it after
+        each step with the worlds that already finished one. No host synchronisation."""
+        self._ep_counted &= ~mask.to(device=self.device, dtype=torch.bool).reshape(self._ep_counted.shape)
+
     def pop_episode_stats(self) -> TensorDict:
         """Per-task sums over the episodes finished since the last call (``[21]`` tensors on the env device):
         ``episodes``, ``success`` (summed progress = goals reached / 8, so ``success / episodes`` is the mean
