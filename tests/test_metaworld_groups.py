@@ -66,6 +66,16 @@ def test_grouped_state_dict_round_trip() -> None:
         _env(False).load_state_dict(state)
 
 
+def test_a_slice_reads_and_clears_only_its_worlds_overflow_bits() -> None:
+    env = _env(True, tasks=["pick_place", "push"])
+    sim, push = env.sims[0], env.blocks[1][1].sim  # push: worlds 2-3 of the shared sim
+    bits = 4  # one mjw.OverflowType bit, set in every world
+    sim._overflow.fill_(bits)
+    assert push.overflowed(bits, clear=True).tolist() == [True, True]
+    assert sim.overflowed(bits).tolist() == [True, True, False, False]
+    assert not push.overflowed(bits).any()
+
+
 def test_models_differing_in_shared_fields_are_not_grouped() -> None:
     env = _env(True, tasks=["reach", "drawer_open", "drawer_close"])
     assert env.model_groups == [[0], [1, 2]] and len(env.sims) == 2

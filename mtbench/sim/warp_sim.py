@@ -506,13 +506,15 @@ class WarpSim:
         bad |= (self._overflow & self.fatal_overflow) != 0
         return bad
 
-    def overflowed(self, kinds: int, clear: bool = False) -> torch.Tensor:
+    def overflowed(self, kinds: int, clear: bool = False, worlds: slice | None = None) -> torch.Tensor:
         """Bool ``[nworld]``: the world had an overflow of one of the ``mjw.OverflowType`` bits ``kinds`` since its
         last reset (or since these bits were last cleared: ``clear=True`` clears them after reading, so that a
-        non-fatal overflow is counted per step; e.g. ``HFIELD_OVERFLOW`` where it is not fatal)."""
-        hit = (self._overflow & int(kinds)) != 0
+        non-fatal overflow is counted per step; e.g. ``HFIELD_OVERFLOW`` where it is not fatal). ``worlds``: only
+        these worlds (read and cleared)."""
+        overflow = self._overflow if worlds is None else self._overflow[worlds]  # a view: clearing writes through
+        hit = (overflow & int(kinds)) != 0
         if clear:
-            self._overflow.bitwise_and_(~int(kinds))
+            overflow.bitwise_and_(~int(kinds))
         return hit
 
     def _on_own_stream(self):

@@ -139,7 +139,4 @@ class WarpSimSlice:
         return self.sim.unhealthy(max_abs_qvel)[self.worlds]
 
     def overflowed(self, kinds: int, clear: bool = False) -> torch.Tensor:
-        hit = self.sim.overflowed(kinds)[self.worlds]
-        if clear:  # these worlds' bits only
-            self.sim._overflow[self.worlds].bitwise_and_(~int(kinds))
-        return hit
+        return self.sim.overflowed(kinds, clear, worlds=self.worlds)
