@@ -199,6 +199,8 @@ class WarpSim:
             self.stream = torch.cuda.Stream(device=self.device)
             self._wp_stream = wp.stream_from_torch(self.stream)
         self._key_ids_t = wp.to_torch(self._key_ids)
+        #: the keyframe a reset gives each world: 0, or its model's keyframe 0 with ``world_models``
+        self._world_key = torch.zeros_like(self._key_ids_t)
         self._clean_mask_t = wp.to_torch(self._clean_mask)
         self._clean_flag_t = wp.to_torch(self._clean_flag)
         if not self._has_key:
@@ -223,7 +225,6 @@ class WarpSim:
         for name in self.batched_fields:
             self.model_field(name)
         self._static_geoms = self._static_geom_table()
-        self._world_key: torch.Tensor | None = None
         if self.world_models is not None:
             self._init_world_models(reset_key)
         self._graphs: dict[str, object] = {}
@@ -319,10 +320,8 @@ class WarpSim:
     def stage_reset(self, mask: torch.Tensor) -> None:
         """Mark the worlds where ``mask`` (bool ``[nworld]``) is true for the next ``"reset"`` launch and clear
         their overflow flags. Torch work only (safe inside a torch CUDA graph capture)."""
-        if self._has_key and self._world_key is not None:  # each world's model's keyframe 0
+        if self._has_key:  # each world's keyframe where mask, -1 (untouched) elsewhere
             self._key_ids_t.copy_(torch.where(mask, self._world_key, -1))
-        elif self._has_key:
-            self._key_ids_t.copy_(mask.to(self._key_ids_t.dtype) - 1)  # keyframe 0 where mask, -1 (untouched) elsewhere
         else:
             self._reset_mask_t.copy_(mask)
         clean = mask & self.unhealthy()
