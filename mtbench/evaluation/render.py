@@ -323,11 +323,12 @@ class EnvRenderer:
                 raise ValueError(f"worlds_per_task must be in [1, {fewest}] (the smallest task block), "
                                  f"got {worlds_per_task}")
             self.task_ids = list(range(len(sims)))
-            self.renderers = [
-                WorldRenderer(s, worlds_per_task, width, height, camera, shadows=shadows) if isinstance(s, WarpSim)
-                else WorldRenderer(s.sim, worlds_per_task, width, height, camera, shadows=shadows,
-                                   worlds=torch.arange(s.worlds.start, s.worlds.start + worlds_per_task))
-                for s in sims]
+            self.renderers = []
+            for s in sims:  # a WarpSimSlice renders its first worlds of the shared sim
+                sim, worlds = (s, None) if isinstance(s, WarpSim) else (
+                    s.sim, torch.arange(s.worlds.start, s.worlds.start + worlds_per_task))
+                self.renderers.append(WorldRenderer(sim, worlds_per_task, width, height, camera, shadows=shadows,
+                                                    worlds=worlds))
         self.num_tasks = len(self.task_ids)
         self.device = self.renderers[0].device
 
