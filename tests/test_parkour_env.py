@@ -17,7 +17,7 @@ from cpu_runs import one_torch_thread
 from mtbench.envs import make_env
 from mtbench.envs.parkour import curriculum as cl
 from mtbench.envs.parkour import robot
-from mtbench.envs.parkour.env import ParkourEnv
+from mtbench.envs.parkour.env import END_REASONS, ParkourEnv
 from mtbench.envs.parkour.height_scan import SCAN_X, SCAN_Y
 from mtbench.envs.parkour.observation import GROUPS, OBS_DIM, SLICES, STATE_DIM, scandots
 from mtbench.envs.parkour.rewards import (REWARD_SCALES, collision, compute_reward, energy_cost,
@@ -55,6 +55,13 @@ def _teleport(env: ParkourEnv, xyz: torch.Tensor, quat: torch.Tensor | None = No
     assert n == xyz.shape[0]
 
 
+def _ends(stats, task: int) -> dict[str, int]:
+    """The non-zero ``end_<reason>`` counts of ``task`` in ``pop_episode_stats()``; they sum to its episodes."""
+    counts = {r: int(stats[f"end_{r}"][task]) for r in END_REASONS}
+    assert sum(counts.values()) == int(stats["episodes"][task])
+    return {r: c for r, c in counts.items() if c}
+
+
 def _step(env: ParkourEnv, td, action: torch.Tensor | None = None):
     td["action"] = torch.zeros(env.batch_size[0], 12) if action is None else action
     out, td = env.step_and_maybe_reset(td)
@@ -87,6 +94,7 @@ def test_waypoints_progress_statistics_and_curriculum_on_a_scripted_path() -> No
     stats = env.pop_episode_stats()
     assert stats["episodes"][FLAT] == 1 and stats["success"][FLAT] == 1.0
     assert stats["length"][FLAT] == t + 1
+    assert _ends(stats, FLAT) == {"goals": 1}  # ended by reaching every goal
     assert stats["terrain_level"][FLAT] == 0 and stats["max_terrain_level"][FLAT] == 0
     assert stats["max_terrain_level"].sum() == 0 - (len(TERRAIN_NAMES) - 1)  # -1 for tasks without episodes
     # curriculum: 8 goals >= 0.8 * 8: one row up, and the new episode starts on row 1's tile (x = 8 + 1), whose
@@ -181,6 +189,9 @@ def test_termination_and_time_out() -> None:
     stats = env.pop_episode_stats()
     assert stats["episodes"][FLAT] == 2 and stats["episodes"][BOX] == 2
     assert stats["length"][BOX] == 1 + 3
+    # how they ended, one reason each: roll and pitch on the flat tile, below -0.25 m and the length on the box tile
+    assert _ends(stats, FLAT) == {"roll": 1, "pitch": 1}
+    assert _ends(stats, BOX) == {"height": 1, "time": 1}
 
 
 def test_reward_terms_on_constructed_states() -> None:
@@ -340,6 +351,7 @@ def test_failed_physics_worlds_are_reset_and_counted() -> None:
     assert torch.isfinite(td["observation"]).all() and torch.isfinite(env.sim.qpos).all()
     stats = env.pop_episode_stats()
     assert stats["unhealthy"].sum() == 1 and stats["unhealthy"][FLAT] == 1
+    assert _ends(stats, FLAT) == {"physics": 1}
     # too few constraint rows for the landing contacts: every world overflows once its feet touch down
     small = _env(columns=("flat",), num_rows=1, n=2, njmax=16)
     td = small.reset()
@@ -481,6 +493,14 @@ def test_checkpoint_round_trip_continues_the_same_trajectories() -> None:
     other = _env(columns=("flat",), num_rows=2, n=4)
     with pytest.raises(RuntimeError, match="env state is for columns"):
         other.load_state_dict(state)
+    # a state saved before the end_<reason> rows (8 statistics rows): those rows load, the new ones start at zero
+    saved = state["_extra_state"]["env"]["_stats"]
+    assert saved.shape[0] == 8 + len(END_REASONS) and saved[0].sum() > 0  # episodes finished since the last pop
+    old = {"_extra_state": {**state["_extra_state"], "env": {**state["_extra_state"]["env"], "_stats": saved[:8]}}}
+    c = _env(seed=5, **kw)
+    c._stats.fill_(7.0)
+    c.load_state_dict(old)
+    assert torch.equal(c._stats[:8], saved[:8]) and not c._stats[8:].any()
 
 
 def test_make_env_settings_on_the_generated_terrain() -> None:

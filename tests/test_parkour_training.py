@@ -172,6 +172,34 @@ def test_window_reports_levels_and_hides_tasks_without_worlds() -> None:
     assert "terrain_level/mean" not in fixed_rows.summary() and "level" not in fixed_rows.table()
 
 
+def test_window_reports_how_the_episodes_ended() -> None:
+    """``end_<reason>`` counts become shares of the finished episodes over the window (per task and the mean over
+    tasks with episodes), a second table, and survive a state round trip; a state saved without them loads."""
+    names = ["a", "b"]
+    window = EpisodeStatsWindow(names, window=2, metric="progress")
+    zeros = torch.zeros(2)
+    window.push({"episodes": torch.tensor([4.0, 0.0]), "success": zeros, "return": zeros, "length": zeros,
+                 "end_time": torch.tensor([1.0, 0.0]), "end_roll": torch.tensor([3.0, 0.0])})
+    window.push({"episodes": torch.tensor([4.0, 2.0]), "success": zeros, "return": zeros, "length": zeros,
+                 "end_time": torch.tensor([0.0, 0.0]), "end_roll": torch.tensor([4.0, 2.0])})
+    summary = window.summary()
+    assert summary["end_time/a"] == 1 / 8 and summary["end_roll/a"] == 7 / 8 and summary["end_roll/b"] == 1.0
+    assert summary["end_roll/mean"] == (7 / 8 + 1.0) / 2 and summary["end_time/mean"] == 1 / 16
+    ended = window.table().split("\n\n")[1].splitlines()
+    assert ended[0].split() == ["ended", "by", "time", "roll"]
+    assert ended[2].split() == ["a", "12.5%", "87.5%"] and ended[3].split() == ["b", "0.0%", "100.0%"]
+    window.push({"episodes": torch.tensor([0.0, 2.0]), "success": zeros, "return": zeros, "length": zeros,
+                 "end_time": torch.tensor([0.0, 2.0]), "end_roll": zeros})  # the first push leaves the window
+    assert window.summary()["end_time/b"] == 0.5 and window.summary()["end_roll/a"] == 1.0
+    restored = EpisodeStatsWindow(names, window=2, metric="progress")
+    restored.load_state_dict(window.state_dict())
+    assert restored.summary() == window.summary()
+    before = {k: v for k, v in window.state_dict().items() if k not in ("end_keys", "ends")}
+    old = EpisodeStatsWindow(names, window=2, metric="progress")
+    old.load_state_dict(before)  # a checkpoint from before the end reasons
+    assert not any(k.startswith("end_") for k in old.summary()) and "ended by" not in old.table()
+
+
 # ---------------------------------------------------------------------------------------------- stages, weights
 @pytest.fixture(scope="module")
 def stage(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
@@ -401,6 +429,12 @@ def test_eval_command_on_a_parkour_moore_checkpoint(tmp_path: Path) -> None:
     assert sampled.metric == "progress" and len(sampled.task_names) == 21
     assert all(n >= 1 for n in deterministic.episodes)
     assert all(0.0 <= p <= 1.0 for p in deterministic.success)
+    shares = deterministic.end_shares()  # how the counted episodes ended: one reason each
+    assert list(shares) == ["goals", "time", "height", "roll", "pitch", "physics"]
+    for i, n in enumerate(deterministic.episodes):
+        assert sum(shares[r][i] for r in shares) == pytest.approx(1.0)
+    assert "How the counted episodes ended" in report.table and "| height" in report.table
+    assert "How the counted episodes ended" in report.markdown.read_text()
     actions = torch.cat(seen)
     assert actions.abs().max() == 1.0  # clamped as in training (clip_actions), not to the env's +-5
     video = evaluate(parse_args([f"checkpoint={ckpt}", "episodes=1", "video=true", "video_frames=4",

@@ -9,8 +9,11 @@ from typing import Any, Callable
 import torch
 from tensordict import TensorDictBase
 
+from ..trainer.metrics import END_PREFIX
+
 STAT_KEYS = ("episodes", "success", "return", "length")
-# optional per-task counters an env may report besides STAT_KEYS (summed and reported when present)
+# optional per-task counters an env may report besides STAT_KEYS (summed and reported when present), and any
+# ``end_<reason>`` count (how the counted episodes ended, one reason each: Parkour)
 EXTRA_STAT_KEYS = ("unhealthy", "nonfinite_actions")
 
 
@@ -20,7 +23,9 @@ class EvalResult:
 
     ``success`` is the env's success statistic per finished episode: for Meta-World the fraction of episodes that
     succeeded at any step (the paper's metric); an env whose ``pop_episode_stats()["success"]`` sums another
-    quantity (e.g. a progress in [0, 1]) names it in ``env.success_metric``, kept in ``metric``.
+    quantity (e.g. a progress in [0, 1]) names it in ``env.success_metric``, kept in ``metric``. ``extra`` holds the
+    env's optional per-task counts (``unhealthy``, ``nonfinite_actions``, ``end_<reason>``: episodes that ended that
+    way; :meth:`end_shares` gives them as shares of the episodes).
     """
 
     mode: str
@@ -48,6 +53,12 @@ class EvalResult:
     @property
     def mean_length(self) -> float:
         return self._mean(self.lengths)
+
+    def end_shares(self) -> dict[str, list[float]]:
+        """Per end reason (the ``end_`` prefix removed), each task's share of its counted episodes that ended that
+        way (NaN without episodes); empty for an env that reports no end reasons."""
+        return {key[len(END_PREFIX):]: [c / n if n > 0 else math.nan for c, n in zip(counts, self.episodes)]
+                for key, counts in self.extra.items() if key.startswith(END_PREFIX)}
 
     def as_dict(self) -> dict[str, Any]:
         per_task = {
@@ -129,8 +140,8 @@ def run_episodes(
                 finished = done if finished is None else finished | done
                 exclude(finished)
         stats = env.pop_episode_stats()
-        for key in (*STAT_KEYS, *EXTRA_STAT_KEYS):
-            if key in stats.keys():
+        for key in stats.keys():
+            if key in STAT_KEYS or key in EXTRA_STAT_KEYS or key.startswith(END_PREFIX):
                 value = stats.get(key).detach().double()
                 totals[key] = value if key not in totals else totals[key] + value
     host = {k: v.cpu() for k, v in totals.items()}  # the one host sync
@@ -144,7 +155,7 @@ def run_episodes(
         success=(host["success"] / denom).tolist(),
         returns=(host["return"] / denom).tolist(),
         lengths=(host["length"] / denom).tolist(),
-        extra={k: host[k].tolist() for k in EXTRA_STAT_KEYS if k in host},
+        extra={k: v.tolist() for k, v in host.items() if k in EXTRA_STAT_KEYS or k.startswith(END_PREFIX)},
     )
 
 

@@ -7,11 +7,8 @@ import math
 from pathlib import Path
 from typing import Any, Sequence
 
+from ..trainer.metrics import percent
 from .episodes import EvalResult
-
-
-def _pct(value: float) -> str:
-    return "n/a" if value != value else f"{100 * value:.1f}%"
 
 
 def _num(value: float, digits: int = 1) -> str:
@@ -36,12 +33,12 @@ def markdown_table(results: Sequence[EvalResult]) -> str:
     for i, name in enumerate(names):
         row = [name]
         for r in results:
-            row += [_pct(r.success[i]), _num(r.returns[i]), _num(r.lengths[i])]
+            row += [percent(r.success[i]), _num(r.returns[i]), _num(r.lengths[i])]
         row += [str(r.episodes[i]) for r in counted]
         rows.append(row)
     mean = ["**mean**"]
     for r in results:
-        mean += [f"**{_pct(r.mean_success)}**", _num(r.mean_return), _num(r.mean_length)]
+        mean += [f"**{percent(r.mean_success)}**", _num(r.mean_return), _num(r.mean_length)]
     mean += [str(sum(r.episodes)) for r in counted]
     rows.append(mean)
     widths = [max(len(str(x)) for x in col) for col in zip(header, align, *rows)]
@@ -50,6 +47,26 @@ def markdown_table(results: Sequence[EvalResult]) -> str:
         return "| " + " | ".join(str(c).ljust(w) for c, w in zip(cells, widths)) + " |"
 
     return "\n".join([line(header), line(align), *(line(r) for r in rows)])
+
+
+def end_table(results: Sequence[EvalResult]) -> str:
+    """How the counted episodes ended (each reason's share per task, the rows sum to 100%), one column group per
+    evaluation; empty when the env reports no end reasons."""
+    shares = [r.end_shares() for r in results]
+    if not shares or not shares[0]:
+        return ""
+    reasons = list(shares[0])
+    header = ["task"] + [f"{reason} ({r.mode})" if len(results) > 1 else reason
+                         for r in results for reason in reasons]
+    rows = [[name] + [percent(s[reason][i]) for s in shares for reason in reasons]
+            for i, name in enumerate(results[0].task_names) if results[0].episodes[i] > 0]
+    widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
+
+    def line(cells: Sequence[str]) -> str:
+        return "| " + " | ".join(str(c).ljust(w) for c, w in zip(cells, widths)) + " |"
+
+    align = "| " + " | ".join(("-" * w) if i == 0 else ("-" * (w - 1) + ":") for i, w in enumerate(widths)) + " |"
+    return "\n".join([line(header), align, *(line(r) for r in rows)])
 
 
 def _finite(value: Any) -> Any:
@@ -73,6 +90,9 @@ def write_reports(out: Path, results: Sequence[EvalResult], info: dict[str, Any]
         if key in info:
             lines.append(f"- {key}: `{info[key]}`")
     lines += ["", markdown_table(results), ""]
+    ends = end_table(results)
+    if ends:
+        lines += ["How the counted episodes ended:", "", ends, ""]
     if info.get("videos"):
         lines += ["Videos:", ""] + [f"- {task}: `{path}`" for task, path in info["videos"].items()] + [""]
     md.write_text("\n".join(lines))
@@ -82,4 +102,4 @@ def write_reports(out: Path, results: Sequence[EvalResult], info: dict[str, Any]
     return md, js
 
 
-__all__ = ["markdown_table", "write_reports"]
+__all__ = ["end_table", "markdown_table", "write_reports"]

@@ -15,7 +15,7 @@ from omegaconf import OmegaConf
 from .args import EvalArgs, EvalArgumentError, parse_args
 from .episodes import EvalResult, fewest_worlds, passes_needed, run_episodes, worlds_per_task
 from .policy import EvalPolicy, checkpoint_num_tasks, load_policy, make_eval_env, read_checkpoint
-from .report import markdown_table, write_reports
+from .report import end_table, markdown_table, write_reports
 from .video import VideoRecorder, contact_sheet, write_png, write_video
 
 DEFAULT_VIDEO_FRAMES = 150
@@ -169,6 +169,9 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
         if callable(close):
             close()
     table = markdown_table(results)
+    ends = end_table(results)
+    if ends:
+        table += "\n\nHow the counted episodes ended:\n\n" + ends
     md, js = write_reports(out, results, info)
     mcap = _write_mcap(out, results, info, cfg, args, clips) if logger == "mcap" else None
     return EvalReport(results=results, table=table, out=out, markdown=md, json=js, mcap=mcap, videos=videos,
@@ -178,7 +181,8 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
 def _write_mcap(out: Path, results: list[EvalResult], info: dict[str, Any], cfg: Any, args: EvalArgs,
                 clips: torch.Tensor | None) -> Path:
     """``out/eval.mcap``: the results as scalars at step = the checkpoint's training frames (``success/<task>``,
-    ``return/<task>``, ``length/<task>``, ``success/mean``, ``return/mean`` for the sampled evaluation, the same
+    ``return/<task>``, ``length/<task>``, ``success/mean``, ``return/mean``, and with end reasons
+    ``end_<reason>/<task>`` (shares of the episodes) for the sampled evaluation, the same
     under ``deterministic/`` for the deterministic one), the configuration as hyperparameters, and the videos on
     ``/video/eval/<task>``."""
     from ..logging import MCAPLogger
@@ -198,6 +202,9 @@ def _write_mcap(out: Path, results: list[EvalResult], info: dict[str, Any], cfg:
                     metrics[f"{prefix}return/{name}"] = r.returns[i]
                     metrics[f"{prefix}length/{name}"] = r.lengths[i]
                 metrics[f"{prefix}episodes/{name}"] = float(r.episodes[i])
+                for reason, shares in r.end_shares().items():
+                    if r.episodes[i] > 0:
+                        metrics[f"{prefix}end_{reason}/{name}"] = shares[i]
             metrics[f"{prefix}success/mean"] = r.mean_success
             metrics[f"{prefix}return/mean"] = r.mean_return
             logger.log_metrics(metrics, step=step)

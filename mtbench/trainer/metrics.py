@@ -14,6 +14,14 @@ STAT_KEYS = ("episodes", "success", "return", "length")
 # optional per-task statistics of curriculum envs (Parkour-hard-cl): summed levels of the finished episodes and the
 # highest level of a finished episode (-1: none)
 LEVEL_KEYS = ("terrain_level", "max_terrain_level")
+# optional per-task counts of how the finished episodes ended, one reason each (Parkour: end_goals, end_time,
+# end_height, end_roll, end_pitch, end_physics); any stats key with this prefix is one
+END_PREFIX = "end_"
+
+
+def percent(value: float) -> str:
+    """A share in [0, 1] as ``"12.3%"`` (``"n/a"`` for NaN)."""
+    return "n/a" if value != value else f"{100 * value:.1f}%"
 
 
 class EpisodeStatsWindow:
@@ -29,7 +37,9 @@ class EpisodeStatsWindow:
 
     When the stats hold ``terrain_level`` / ``max_terrain_level`` (the Parkour curriculum), the window also reports
     the mean terrain level of the finished episodes per task and the highest one (``terrain_level/<task>``,
-    ``terrain_level_max/<task>``).
+    ``terrain_level_max/<task>``). When they hold ``end_<reason>`` counts (how each finished episode ended, e.g.
+    Parkour's falls into a pit or roll-overs), it reports each reason's share of the finished episodes
+    (``end_<reason>/<task>``, ``end_<reason>/mean``) and :meth:`table` adds a table of them.
 
     Args:
         task_names: the env's tasks (``env.task_names``).
@@ -56,6 +66,8 @@ class EpisodeStatsWindow:
             raise ValueError(f"active must hold one flag per task ({k}), got shape {tuple(self.active.shape)}")
         self._items: deque[torch.Tensor] = deque(maxlen=self.window)
         self._levels: deque[torch.Tensor] = deque(maxlen=self.window)
+        self.end_keys: list[str] = []  # the env's end_<reason> keys, from the first push that has any
+        self._ends: deque[torch.Tensor] = deque(maxlen=self.window)
         self.total_episodes = torch.zeros(k, dtype=torch.float64)
 
     def push(self, stats: TensorDictBase | Mapping[str, torch.Tensor]) -> None:
@@ -74,6 +86,12 @@ class EpisodeStatsWindow:
             level_max = (stats[LEVEL_KEYS[1]].detach().to("cpu", torch.float64).reshape(-1) if LEVEL_KEYS[1] in keys
                          else torch.full_like(level_sum, -1.0))
             self._levels.append(torch.stack([level_sum, level_max]))
+        if not self.end_keys:
+            self.end_keys = [k for k in keys if isinstance(k, str) and k.startswith(END_PREFIX)]
+        if self.end_keys:
+            self._ends.append(torch.stack([
+                stats[k].detach().to("cpu", torch.float64).reshape(-1) if k in keys else torch.zeros_like(row[0])
+                for k in self.end_keys]))
 
     @property
     def has_levels(self) -> bool:
@@ -88,7 +106,8 @@ class EpisodeStatsWindow:
     def per_task(self) -> dict[str, torch.Tensor]:
         """``success_rate``, ``return``, ``length`` (means per finished episode) and ``episodes`` ([K] each); with a
         curriculum also ``terrain_level`` (mean level of the finished episodes) and ``max_terrain_level`` (highest;
-        NaN without finished episodes)."""
+        NaN without finished episodes); with end reasons each ``end_<reason>`` as a share of the finished
+        episodes."""
         episodes, success, ret, length = self._sums()
         denom = torch.where(episodes > 0, episodes, torch.full_like(episodes, float("nan")))
         out = {"episodes": episodes, "success_rate": success / denom, "return": ret / denom, "length": length / denom}
@@ -97,6 +116,10 @@ class EpisodeStatsWindow:
             out["terrain_level"] = levels[:, 0].sum(0) / denom
             top = levels[:, 1].amax(0)
             out["max_terrain_level"] = torch.where(top >= 0, top, torch.full_like(top, float("nan")))
+        if self._ends:
+            ends = torch.stack(list(self._ends)).sum(0)
+            for key, count in zip(self.end_keys, ends):
+                out[key] = count / denom
         return out
 
     def mean_success(self) -> float:
@@ -119,7 +142,13 @@ class EpisodeStatsWindow:
                 if "terrain_level" in stats:
                     out[f"terrain_level/{name}"] = float(stats["terrain_level"][i])
                     out[f"terrain_level_max/{name}"] = float(stats["max_terrain_level"][i])
+                for key in self.end_keys if self._ends else ():
+                    out[f"{key}/{name}"] = float(stats[key][i])
         out["success/mean"] = self.mean_success()
+        for key in self.end_keys if self._ends else ():
+            share = stats[key]
+            valid = ~torch.isnan(share)
+            out[f"{key}/mean"] = float(share[valid].mean()) if bool(valid.any()) else float("nan")
         ret = stats["return"]
         valid = ~torch.isnan(ret)
         out["return/mean"] = float(ret[valid].mean()) if bool(valid.any()) else float("nan")
@@ -162,14 +191,31 @@ class EpisodeStatsWindow:
         hidden = len(self.task_names) - len(shown)
         if hidden:
             lines.append(f"({hidden} task slot{'s' if hidden > 1 else ''} without worlds in this env not shown)")
+        if self._ends:
+            lines += ["", self._end_table(stats, shown, width)]
+        return "\n".join(lines)
+
+    def _end_table(self, stats: Mapping[str, torch.Tensor], shown: Sequence[int], width: int) -> str:
+        """How the finished episodes of each task ended: each reason's share (the rows sum to 100%)."""
+        reasons = [k[len(END_PREFIX):] for k in self.end_keys]
+        cols = [max(7, len(r)) for r in reasons]
+        header = f"{'ended by':<{width}}  " + "  ".join(f"{r:>{c}}" for r, c in zip(reasons, cols))
+        lines = [header, "-" * len(header)]
+        for i in shown:
+            cells = [percent(float(stats[k][i])) for k in self.end_keys]
+            lines.append(f"{self.task_names[i]:<{width}}  " + "  ".join(f"{x:>{c}}" for x, c in zip(cells, cols)))
         return "\n".join(lines)
 
     def state_dict(self) -> dict[str, Any]:
         return {"window": self.window, "items": [t.clone() for t in self._items],
-                "levels": [t.clone() for t in self._levels], "total_episodes": self.total_episodes}
+                "levels": [t.clone() for t in self._levels], "end_keys": list(self.end_keys),
+                "ends": [t.clone() for t in self._ends], "total_episodes": self.total_episodes}
 
     def load_state_dict(self, state: Mapping[str, Any]) -> None:
         self._items = deque([torch.as_tensor(t, dtype=torch.float64) for t in state["items"]], maxlen=self.window)
         self._levels = deque([torch.as_tensor(t, dtype=torch.float64) for t in state.get("levels", [])],
                              maxlen=self.window)
+        self.end_keys = list(state.get("end_keys", []))  # absent in checkpoints before 2026-11-28
+        self._ends = deque([torch.as_tensor(t, dtype=torch.float64) for t in state.get("ends", [])],
+                           maxlen=self.window)
         self.total_episodes = torch.as_tensor(state["total_episodes"], dtype=torch.float64).clone()

@@ -56,8 +56,12 @@ GOAL_STEPS = 1  # a goal is reached after more than this many steps within GOAL_
 FOOT_CONTACT_FORCE = 2.0  # N
 RESET_JOINT_NOISE = (0.0, 0.9)  # rad added to every default joint angle at reset
 MAX_ROLL, MAX_PITCH, MIN_BASE_Z = 2.5, 1.5, -0.25
+# how a counted episode ended, one reason per episode (``end_<reason>`` rows of pop_episode_stats, in this order of
+# precedence): all goals reached, the episode length, a fall below MIN_BASE_Z, a roll past MAX_ROLL, a pitch past
+# MAX_PITCH, a failed physics state
+END_REASONS = ("goals", "time", "height", "roll", "pitch", "physics")
 STAT_ROWS = ("episodes", "success", "return", "length", "unhealthy", "terrain_level", "nonfinite_actions",
-             "contact_overflow")
+             "contact_overflow", *(f"end_{reason}" for reason in END_REASONS))
 
 
 class ParkourEnv(EnvBase):
@@ -451,7 +455,12 @@ class ParkourEnv(EnvBase):
         for name, value in terms.items():
             self.reward_terms[name].copy_(value)
         self._ep_return.add_(reward)
-        self._accumulate_stats(done, unhealthy, contact_overflow)
+        below = self.base_pos[:, 2] < MIN_BASE_Z
+        rolled = self.roll.abs() > MAX_ROLL
+        goals = self.cur_goal_idx >= NUM_GOALS
+        ends = torch.stack([truncated & ~unhealthy & goals, truncated & ~unhealthy & ~goals, terminated & below,
+                            terminated & ~below & rolled, terminated & ~below & ~rolled, unhealthy])
+        self._accumulate_stats(done, unhealthy, contact_overflow, ends)
         if self.curriculum:
             new = cl.update_levels(self.level, self.cur_goal_idx, NUM_GOALS, self.num_rows,
                                    torch.rand(self.level.shape, generator=self._generator, device=self.device),
@@ -478,12 +487,16 @@ class ParkourEnv(EnvBase):
             vel = self._uniform((self.batch_size[0], 2), -PUSH_VELOCITY, PUSH_VELOCITY)
             self.sim.qvel[:, 0:2] = torch.where(push[:, None], vel, self.sim.qvel[:, 0:2])
 
-    def _accumulate_stats(self, done: torch.Tensor, unhealthy: torch.Tensor, contact_overflow: torch.Tensor) -> None:
+    def _accumulate_stats(self, done: torch.Tensor, unhealthy: torch.Tensor, contact_overflow: torch.Tensor,
+                          ends: torch.Tensor) -> None:
+        """Add this step's finished episodes to the per-task sums; ``ends`` ``[len(END_REASONS), N]`` bool: how
+        each world's episode ended (one reason per finished world)."""
         counted = done & self._ep_counted
         c = counted.float()
         progress = self.cur_goal_idx.clamp(max=NUM_GOALS).float() / NUM_GOALS
         rows = torch.stack([c, c * progress, c * self._ep_return, c * self.progress.float(), unhealthy.float(),
-                            c * self.level.float(), self._nonfinite_action.float(), contact_overflow.float()])
+                            c * self.level.float(), self._nonfinite_action.float(), contact_overflow.float(),
+                            *(ends & counted).float()])
         self._stats.index_add_(1, self.task_id, rows)
         level = torch.where(counted, self.level, torch.full_like(self.level, -1))
         self._max_level.scatter_reduce_(0, self.task_id, level, reduce="amax")
@@ -559,7 +572,12 @@ class ParkourEnv(EnvBase):
             raise RuntimeError(f"env state is for columns {state['columns']} x {state['column_counts']}, this env has "
                                f"{list(self.columns)} x {list(self.column_counts)}")
         for k, v in state["env"].items():
-            getattr(self, k).copy_(v)
+            target = getattr(self, k)
+            if k == "_stats" and v.shape[0] < target.shape[0]:  # saved before the end_* rows existed (2026-11-28)
+                target.zero_()
+                target[: v.shape[0]].copy_(v)
+                continue
+            target.copy_(v)
         for k, v in state["domain"].items():
             getattr(self.domain, k).copy_(v)
         self._generator.set_state(state["generator"].cpu() if self.device.type == "cpu" else state["generator"])
@@ -580,7 +598,10 @@ class ParkourEnv(EnvBase):
         ``terrain_level`` (summed rows of the finished episodes), ``max_terrain_level`` (highest row of a finished
         episode, -1 if none), ``nonfinite_actions`` (steps whose action had a NaN/inf component, replaced by 0) and
         ``contact_overflow`` (steps in which a robot geom touched more than 50 heightfield prisms and kept the contacts
-        of the first 50: the trunk lying on the ground; not a failure)."""
+        of the first 50: the trunk lying on the ground; not a failure), and how the finished episodes ended, one
+        reason each (so the six sum to ``episodes``): ``end_goals`` (all 8 goals reached), ``end_time`` (the episode
+        length), ``end_height`` (base below -0.25 m: fell into a pit), ``end_roll`` (|roll| > 2.5, not below),
+        ``end_pitch`` (|pitch| > 1.5, neither of those), ``end_physics`` (a failed physics state)."""
         stats = self._stats.clone()
         max_level = self._max_level.clone()
         self._stats.zero_()
