@@ -7,6 +7,7 @@ the checkpoint. Evaluations run 2 episodes per task.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -302,3 +303,25 @@ def test_passes_count_only_tasks_with_worlds() -> None:
     assert worlds_per_task(flat) == [0] * 20 + [4]
     assert passes_needed(flat, 10) == 3 and passes_needed(flat, 4) == 1
     assert passes_needed(SimpleNamespace(task_counts=[3, 2, 5]), 5) == 3  # the smallest block sets the passes
+
+
+def test_report_tables_leave_out_task_slots_without_worlds_and_give_end_shares() -> None:
+    """Known answers: a task slot with no episode in any evaluation is left out (with a line saying so); the end
+    reasons become each task's shares of its counted episodes."""
+    from mtbench.evaluation.episodes import EvalResult
+    from mtbench.evaluation.report import end_table, markdown_table
+
+    nan = float("nan")
+    result = EvalResult("deterministic", "progress", ["a", "b", "c"], [2, 0, 4], [0.5, nan, 0.25], [1.0, nan, 2.0],
+                        [10.0, nan, 5.0], {"unhealthy": [0, 0, 0], "end_time": [1, 0, 1], "end_roll": [1, 0, 3]})
+    table = markdown_table([result])
+    rows = [line.split("|")[1].strip() for line in table.splitlines() if line.startswith("|")]
+    assert rows == ["task", "---", "a", "c", "**mean**"]
+    assert "**37.5%**" in table and "(1 task slot without worlds in this env not shown)" in table
+    shares = result.end_shares()
+    assert list(shares) == ["time", "roll"] and shares["roll"][2] == 0.75 and shares["time"][0] == 0.5
+    assert math.isnan(shares["time"][1])
+    ends = [[c.strip() for c in line.split("|")[1:-1]] for line in end_table([result]).splitlines()]
+    assert ends[0] == ["task", "time", "roll"] and ends[2:] == [["a", "50.0%", "50.0%"], ["c", "25.0%", "75.0%"]]
+    no_ends = EvalResult("sampled", "success", ["a"], [1], [1.0], [0.0], [1.0])
+    assert end_table([no_ends]) == "" and no_ends.end_shares() == {}

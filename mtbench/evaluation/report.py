@@ -17,7 +17,9 @@ def _num(value: float, digits: int = 1) -> str:
 
 def markdown_table(results: Sequence[EvalResult]) -> str:
     """One row per task and a mean row; per evaluation (sampled, deterministic) a success, return and length
-    column, then the finished episodes (one column when both evaluations have the same counts)."""
+    column, then the finished episodes (one column when both evaluations have the same counts). Task slots without
+    an episode in any evaluation (an env without worlds of them, e.g. Parkour's 21 slots in a run on a few terrains:
+    every world finishes an episode per pass) are left out, with a line that says how many."""
     if not results:
         raise ValueError("no evaluation results")
     names = results[0].task_names
@@ -30,7 +32,9 @@ def markdown_table(results: Sequence[EvalResult]) -> str:
     counted = results[:1] if same_counts else results
     align = ["---"] + ["---:"] * (len(header) - 1)
     rows = []
-    for i, name in enumerate(names):
+    shown = [i for i in range(len(names)) if any(r.episodes[i] > 0 for r in results)]
+    for i in shown:
+        name = names[i]
         row = [name]
         for r in results:
             row += [percent(r.success[i]), _num(r.returns[i]), _num(r.lengths[i])]
@@ -46,7 +50,11 @@ def markdown_table(results: Sequence[EvalResult]) -> str:
     def line(cells: Sequence[str]) -> str:
         return "| " + " | ".join(str(c).ljust(w) for c, w in zip(cells, widths)) + " |"
 
-    return "\n".join([line(header), line(align), *(line(r) for r in rows)])
+    table = "\n".join([line(header), line(align), *(line(r) for r in rows)])
+    hidden = len(names) - len(shown)
+    if hidden:
+        table += f"\n\n({hidden} task slot{'s' if hidden > 1 else ''} without worlds in this env not shown)"
+    return table
 
 
 def end_table(results: Sequence[EvalResult]) -> str:
