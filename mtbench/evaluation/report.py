@@ -15,6 +15,17 @@ def _num(value: float, digits: int = 1) -> str:
     return "n/a" if value != value else f"{value:.{digits}f}"
 
 
+def _markdown(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    """A markdown table with columns padded to their widest cell (the first left-aligned, the rest right)."""
+    align = ["---"] + ["---:"] * (len(header) - 1)
+    widths = [max(len(str(x)) for x in col) for col in zip(header, align, *rows)]
+
+    def line(cells: Sequence[str]) -> str:
+        return "| " + " | ".join(str(c).ljust(w) for c, w in zip(cells, widths)) + " |"
+
+    return "\n".join([line(header), line(align), *(line(r) for r in rows)])
+
+
 def markdown_table(results: Sequence[EvalResult]) -> str:
     """One row per task and a mean row; per evaluation (sampled, deterministic) a success, return and length
     column, then the finished episodes (one column when both evaluations have the same counts). Task slots without
@@ -30,12 +41,10 @@ def markdown_table(results: Sequence[EvalResult]) -> str:
     same_counts = all(r.episodes == results[0].episodes for r in results)
     header += ["episodes"] if same_counts else [f"episodes ({r.mode})" for r in results]
     counted = results[:1] if same_counts else results
-    align = ["---"] + ["---:"] * (len(header) - 1)
-    rows = []
     shown = [i for i in range(len(names)) if any(r.episodes[i] > 0 for r in results)]
+    rows = []
     for i in shown:
-        name = names[i]
-        row = [name]
+        row = [names[i]]
         for r in results:
             row += [percent(r.success[i]), _num(r.returns[i]), _num(r.lengths[i])]
         row += [str(r.episodes[i]) for r in counted]
@@ -45,12 +54,7 @@ def markdown_table(results: Sequence[EvalResult]) -> str:
         mean += [f"**{percent(r.mean_success)}**", _num(r.mean_return), _num(r.mean_length)]
     mean += [str(sum(r.episodes)) for r in counted]
     rows.append(mean)
-    widths = [max(len(str(x)) for x in col) for col in zip(header, align, *rows)]
-
-    def line(cells: Sequence[str]) -> str:
-        return "| " + " | ".join(str(c).ljust(w) for c, w in zip(cells, widths)) + " |"
-
-    table = "\n".join([line(header), line(align), *(line(r) for r in rows)])
+    table = _markdown(header, rows)
     hidden = len(names) - len(shown)
     if hidden:
         table += f"\n\n({hidden} task slot{'s' if hidden > 1 else ''} without worlds in this env not shown)"
@@ -68,13 +72,15 @@ def end_table(results: Sequence[EvalResult]) -> str:
                          for r in results for reason in reasons]
     rows = [[name] + [percent(s[reason][i]) for s in shares for reason in reasons]
             for i, name in enumerate(results[0].task_names) if results[0].episodes[i] > 0]
-    widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
+    return _markdown(header, rows)
 
-    def line(cells: Sequence[str]) -> str:
-        return "| " + " | ".join(str(c).ljust(w) for c, w in zip(cells, widths)) + " |"
 
-    align = "| " + " | ".join(("-" * w) if i == 0 else ("-" * (w - 1) + ":") for i, w in enumerate(widths)) + " |"
-    return "\n".join([line(header), align, *(line(r) for r in rows)])
+def report_tables(results: Sequence[EvalResult]) -> str:
+    """:func:`markdown_table`, then, for an env that reports end reasons, :func:`end_table` under its heading: what
+    ``examples/eval.py`` prints and ``eval.md`` holds."""
+    ends = end_table(results)
+    table = markdown_table(results)
+    return f"{table}\n\nHow the counted episodes ended:\n\n{ends}" if ends else table
 
 
 def _finite(value: Any) -> Any:
@@ -97,10 +103,7 @@ def write_reports(out: Path, results: Sequence[EvalResult], info: dict[str, Any]
                 "episodes_requested"):
         if key in info:
             lines.append(f"- {key}: `{info[key]}`")
-    lines += ["", markdown_table(results), ""]
-    ends = end_table(results)
-    if ends:
-        lines += ["How the counted episodes ended:", "", ends, ""]
+    lines += ["", report_tables(results), ""]
     if info.get("videos"):
         lines += ["Videos:", ""] + [f"- {task}: `{path}`" for task, path in info["videos"].items()] + [""]
     md.write_text("\n".join(lines))
@@ -110,4 +113,4 @@ def write_reports(out: Path, results: Sequence[EvalResult], info: dict[str, Any]
     return md, js
 
 
-__all__ = ["end_table", "markdown_table", "write_reports"]
+__all__ = ["end_table", "markdown_table", "report_tables", "write_reports"]

@@ -15,7 +15,7 @@ from omegaconf import OmegaConf
 from .args import EvalArgs, EvalArgumentError, parse_args
 from .episodes import EvalResult, fewest_worlds, passes_needed, run_episodes, worlds_per_task
 from .policy import EvalPolicy, checkpoint_num_tasks, load_policy, make_eval_env, read_checkpoint
-from .report import end_table, markdown_table, write_reports
+from .report import report_tables, write_reports
 from .video import VideoRecorder, contact_sheet, write_png, write_video
 
 DEFAULT_VIDEO_FRAMES = 150
@@ -168,10 +168,7 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
         close = getattr(env, "close", None)
         if callable(close):
             close()
-    table = markdown_table(results)
-    ends = end_table(results)
-    if ends:
-        table += "\n\nHow the counted episodes ended:\n\n" + ends
+    table = report_tables(results)
     md, js = write_reports(out, results, info)
     mcap = _write_mcap(out, results, info, cfg, args, clips) if logger == "mcap" else None
     return EvalReport(results=results, table=table, out=out, markdown=md, json=js, mcap=mcap, videos=videos,
@@ -196,14 +193,15 @@ def _write_mcap(out: Path, results: list[EvalResult], info: dict[str, Any], cfg:
         for r in results:
             prefix = "" if r.mode == "sampled" else "deterministic/"
             metrics: dict[str, float] = {}
+            ends = r.end_shares()
             for i, name in enumerate(r.task_names):
                 if r.episodes[i] > 0:
                     metrics[f"{prefix}success/{name}"] = r.success[i]
                     metrics[f"{prefix}return/{name}"] = r.returns[i]
                     metrics[f"{prefix}length/{name}"] = r.lengths[i]
                 metrics[f"{prefix}episodes/{name}"] = float(r.episodes[i])
-                for reason, shares in r.end_shares().items():
-                    if r.episodes[i] > 0:
+                if r.episodes[i] > 0:
+                    for reason, shares in ends.items():
                         metrics[f"{prefix}end_{reason}/{name}"] = shares[i]
             metrics[f"{prefix}success/mean"] = r.mean_success
             metrics[f"{prefix}return/mean"] = r.mean_return
