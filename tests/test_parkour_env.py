@@ -550,3 +550,14 @@ def test_the_robot_can_jump_higher_than_the_jump_terrains_ask() -> None:
         assert bool((crouched < standing - 0.1).all())
         assert bool((flight.max(0).values > standing + 0.3).all()), (flight.max(0).values - standing).tolist()
         assert bool((z[-20:, ok].min(0).values < flight.max(0).values - 0.2).all())  # and comes back down
+
+
+def test_contact_time_constant_reaches_the_simulated_model() -> None:
+    """``robot_contact_timeconst`` (an env override) is the solref of the robot's collision geoms in the model that
+    MuJoCo Warp simulates; the default keeps MuJoCo's 0.02 s."""
+    for value, expected in ((None, 0.02), (0.01, 0.01)):
+        env = _env(robot_contact_timeconst=value)
+        solref = env.sim.model_field("geom_solref")[0]  # [ngeom, 2] of world 0
+        robot_geoms = torch.as_tensor(env.scene.mjm.geom_contype != 0)
+        assert env.scene.robot_contact_timeconst == value
+        assert torch.allclose(solref[robot_geoms], torch.tensor([expected, 1.0]).expand(int(robot_geoms.sum()), 2))

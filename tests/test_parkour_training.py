@@ -77,7 +77,8 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     assert stage.env.name == "parkour_flat" and stage.env.num_envs == 42
     # the grid and the collision set kept, the fine-tuning's curriculum dropped
     assert dict(stage.env.overrides) == {"num_rows": 2, "terrain_collision": "all", "robot_inertia": "menagerie",
-                                         "robot_armature": None, "robot_integrator": "euler"}
+                                         "robot_armature": None, "robot_integrator": "euler",
+                                         "robot_contact_timeconst": None}
     assert stage.grad.name == "none"  # gradient methods start from the plain architecture's weights
     assert stage.max_iterations == 1 and stage.total_frames is None and stage.seed == 0
     key = stage_key(stage)
@@ -97,7 +98,7 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
                                   "env.overrides.robot_inertia=urdf"))
     assert urdf.env.overrides.robot_inertia == "urdf" and stage_key(urdf) != key
     without = flat_stage_config(cfg)
-    for name in ("robot_inertia", "robot_armature", "robot_integrator"):
+    for name in ("robot_inertia", "robot_armature", "robot_integrator", "robot_contact_timeconst"):
         del without.env.overrides[name]
     assert stage_key(without) == key
     # the armature and the integrator too; the default armature named explicitly is the default model
@@ -105,9 +106,9 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     for other in (["env.overrides.robot_armature=0.0"], ["env.overrides.robot_integrator=implicitfast"],
                   ["env.overrides.robot_armature=0.0", "env.overrides.robot_integrator=implicitfast"],
                   ["env.overrides.robot_inertia=urdf", "env.overrides.robot_armature=0.0",
-                   "env.overrides.robot_integrator=implicitfast"]):
+                   "env.overrides.robot_integrator=implicitfast"], ["env.overrides.robot_contact_timeconst=0.01"]):
         keys.add(stage_key(flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other))))
-    assert len(keys) == 5
+    assert len(keys) == 6
     assert stage_key(flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour",
                                             "env.overrides.robot_armature=0.01"))) == key
     # and so does a new robot model (a physics change)

@@ -81,7 +81,7 @@ def flat_stage_config(cfg: DictConfig) -> DictConfig:
 def stage_key(stage: DictConfig) -> str:
     """SHA-256 (hex) of what shapes the pre-trained weights: ``arch``, ``loss``, the flat env, iterations, seed and
     the robot model's version (``robot.model_version``: a physics change invalidates older stages). The env overrides
-    ``robot_inertia``, ``robot_armature`` and ``robot_integrator`` enter through the model version, not as overrides,
+    ``robot_inertia``, ``robot_armature``, ``robot_integrator`` and ``robot_contact_timeconst`` enter through the model version, not as overrides,
     so the default model keeps the key it had before the overrides existed, and a ``"urdf"`` stage never shares a
     ``"menagerie"`` one."""
     from ..envs.parkour.robot import DEFAULT_INERTIAL_MODEL, DEFAULT_INTEGRATOR, model_version
@@ -92,7 +92,8 @@ def stage_key(stage: DictConfig) -> str:
     inertia = overrides.pop("robot_inertia", DEFAULT_INERTIAL_MODEL)
     armature = overrides.pop("robot_armature", None)
     integrator = overrides.pop("robot_integrator", DEFAULT_INTEGRATOR)
-    material["robot_model"] = model_version(inertia, armature, integrator)
+    contact = overrides.pop("robot_contact_timeconst", None)
+    material["robot_model"] = model_version(inertia, armature, integrator, contact)
     return hashlib.sha256(json.dumps(material, sort_keys=True).encode()).hexdigest()
 
 

@@ -94,6 +94,8 @@ class ParkourEnv(EnvBase):
             has 0, which needs ``robot_integrator="implicitfast"``).
         robot_integrator: ``"euler"`` (default: explicit PD damping) or ``"implicitfast"`` (MuJoCo's implicit
             actuator damping, stable without armature; ``robot.INTEGRATORS``).
+        robot_contact_timeconst: the time constant in s of the robot's terrain contacts (None: MuJoCo's 0.02, soft:
+            feet sink 1-2 cm at impacts; down to 0.01, stiffer; the original's PhysX contacts are rigid).
         terrain_representation: ``"tiles"`` (one heightfield per tile, selected per world; physics in tile
             frames) or ``"grid"`` (one heightfield for the whole grid; MuJoCo Warp's heightfield contacts go wrong
             more than ~20 m from its centre: small grids only); see ``scene.py``.
@@ -131,6 +133,7 @@ class ParkourEnv(EnvBase):
         robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL,
         robot_armature: float | None = None,
         robot_integrator: str = robot.DEFAULT_INTEGRATOR,
+        robot_contact_timeconst: float | None = None,
         terrain_representation: str = "tiles",
         tile_margin: float = 1.0,
         domain_randomization: bool = True,
@@ -188,7 +191,7 @@ class ParkourEnv(EnvBase):
 
         # physics: one model, one WarpSim, per-world domain randomization
         self.scene = build_scene(terrain, terrain_collision, terrain_representation, tile_margin, robot_inertia,
-                                 robot_armature, robot_integrator)
+                                 robot_armature, robot_integrator, robot_contact_timeconst)
         mjm = self.scene.mjm
         pairs = self.scene.contact_pairs
         nconmax = 4 * pairs if nconmax is None else nconmax  # MuJoCo Warp makes <= 4 contacts per heightfield pair

@@ -78,6 +78,12 @@ BASE_INIT_HEIGHT = 0.42  # m above the spawn origin
 JOINT_ARMATURE = 0.01  # kg m^2, Menagerie's value
 # joint limit constraints: the stiffest stable time constant at SIM_DT (2 dt) and near-hard impedance
 JOINT_LIMIT_SOLREF = (0.01, 1.0)
+# the robot's contacts with the terrain (its geoms have priority, so their solref is the contact's): MuJoCo's default
+# time constant (0.02 s, soft: a standing Go1's feet sink 5 mm, 1-2 cm at impacts) unless ``contact_timeconst`` is
+# given (0.01 s: 1.2 mm standing); PhysX's contacts (the original) are rigid. Bounds: MuJoCo needs at least 2 timesteps;
+# at 0.05 s a standing Go1 already sinks 28 mm.
+DEFAULT_CONTACT_TIMECONST = 0.02
+CONTACT_TIMECONST_RANGE = (2 * SIM_DT, 0.05)
 JOINT_LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 # integrators of the robot's physics: explicit Euler (default) or MuJoCo's implicitfast (implicit actuator damping)
 INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
@@ -195,16 +201,30 @@ def joint_armature(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None
 
 
 def model_version(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None = None,
-                  integrator: str = DEFAULT_INTEGRATOR) -> str:
+                  integrator: str = DEFAULT_INTEGRATOR, contact_timeconst: float | None = None) -> str:
     """The robot model's version for the flat pre-training key: ``MODEL_VERSION`` for the default model (Menagerie's
-    inertials and armature, Euler; its key unchanged), ``MODEL_VERSION`` plus the inertial model, the armature and a
-    non-default integrator otherwise."""
+    inertials and armature, Euler, MuJoCo's contact time constant; its key unchanged), ``MODEL_VERSION`` plus the
+    inertial model, the armature, a non-default integrator and a given contact time constant otherwise."""
     value = joint_armature(inertia, armature)
     _check_integrator(integrator)
+    contact = check_contact_timeconst(contact_timeconst)
+    suffix = "" if contact is None else f"-contact-{contact:g}"
     if inertia == DEFAULT_INERTIAL_MODEL and value == JOINT_ARMATURE and integrator == DEFAULT_INTEGRATOR:
-        return MODEL_VERSION
+        return MODEL_VERSION + (f"+{suffix[1:]}" if suffix else "")
     version = f"{MODEL_VERSION}+{inertia}-inertia-armature-{value:g}"
-    return version if integrator == DEFAULT_INTEGRATOR else f"{version}-{integrator}"
+    return (version if integrator == DEFAULT_INTEGRATOR else f"{version}-{integrator}") + suffix
+
+
+def check_contact_timeconst(value: float | None) -> float | None:
+    """``value`` as a float (None: MuJoCo's default), or a ValueError naming ``robot_contact_timeconst`` and its
+    range (``CONTACT_TIMECONST_RANGE``)."""
+    if value is None:
+        return None
+    low, high = CONTACT_TIMECONST_RANGE
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= float(value) <= high:
+        raise ValueError(f"robot_contact_timeconst must be a number of seconds in [{low:g}, {high:g}] (or null: "
+                         f"MuJoCo's {DEFAULT_CONTACT_TIMECONST:g}); got {value!r}")
+    return float(value)
 
 
 def _check_inertia(inertia: str) -> None:
@@ -226,7 +246,8 @@ def _collision_class(body_name: str) -> str:
 
 
 def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = DEFAULT_INERTIAL_MODEL,
-             armature: float | None = None, integrator: str = DEFAULT_INTEGRATOR) -> mujoco.MjSpec:
+             armature: float | None = None, integrator: str = DEFAULT_INTEGRATOR,
+             contact_timeconst: float | None = None) -> mujoco.MjSpec:
     """Menagerie Go1 with PD actuators, URDF-like collision shapes, foot bodies and the original's joint dynamics.
 
     Args:
@@ -237,12 +258,16 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = 
         armature: joint rotor armature (kg m^2, in [0, 1]) instead of the model's (``JOINT_ARMATURE`` /
             ``URDF_JOINT_ARMATURE``); below ~0.007 the explicit PD needs ``integrator="implicitfast"``.
         integrator: ``"euler"`` (default) or ``"implicitfast"`` (``INTEGRATORS``; module docstring).
+        contact_timeconst: the time constant (s) of the robot's terrain contacts (its collision geoms' solref,
+            damping ratio 1) instead of MuJoCo's 0.02; smaller is stiffer (``CONTACT_TIMECONST_RANGE``).
     """
     if terrain_collision not in TERRAIN_COLLISIONS:
         raise ValueError(f"unknown terrain_collision {terrain_collision!r}; valid choices: "
                          f"{', '.join(TERRAIN_COLLISIONS)}")
     armature = joint_armature(inertia, armature)
     _check_integrator(integrator)
+    contact = check_contact_timeconst(contact_timeconst)
+    solref = {} if contact is None else {"solref": [contact, 1.0]}
     enabled = TERRAIN_COLLISIONS[: TERRAIN_COLLISIONS.index(terrain_collision) + 1]
     spec = mujoco.MjSpec.from_file(str(menagerie_dir("unitree_go1") / "go1.xml"))
     spec.option.timestep = SIM_DT
@@ -264,7 +289,7 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = 
     def add_collision(body: mujoco.MjsBody, name: str, **kwargs) -> None:
         on = _collision_class(body.name) in enabled
         body.add_geom(name=name, group=3, rgba=[0.8, 0.3, 0.3, 0.4], contype=ROBOT_BIT if on else 0, conaffinity=0,
-                      condim=3, priority=1, friction=[1.0, 0.005, 0.0001], margin=0.0, mass=0.0, **kwargs)
+                      condim=3, priority=1, friction=[1.0, 0.005, 0.0001], margin=0.0, mass=0.0, **solref, **kwargs)
 
     add_collision(spec.body(BASE_BODY), "trunk_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TRUNK_HALF_SIZE))
     add_collision(spec.body(BASE_BODY), "camera_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(CAMERA_BOX_HALF_SIZE),

@@ -52,6 +52,7 @@ class ParkourScene:
         robot_inertia: the robot's inertial model (``robot.INERTIAL_MODELS``).
         robot_armature: the joints' rotor armature (kg m^2).
         robot_integrator: the physics integrator (``robot.INTEGRATORS``).
+        robot_contact_timeconst: the time constant (s) of the robot's terrain contacts, None: MuJoCo's 0.02.
         hfield_geom: id of the terrain heightfield geom.
         tile_offset: float32 ``[num_rows, num_cols, 3]`` world position of each tile's physics frame origin (zeros for
             ``"grid"``: physics coordinates are world coordinates).
@@ -69,6 +70,7 @@ class ParkourScene:
     robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL
     robot_armature: float = robot.JOINT_ARMATURE
     robot_integrator: str = robot.DEFAULT_INTEGRATOR
+    robot_contact_timeconst: float | None = None
 
     @property
     def contact_pairs(self) -> int:
@@ -83,7 +85,8 @@ def _tile_grid_shape(terrain) -> tuple[int, int]:
 
 def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISION, representation: str = "tiles",
                 tile_margin: float = 1.0, robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL,
-                robot_armature: float | None = None, robot_integrator: str = robot.DEFAULT_INTEGRATOR) -> ParkourScene:
+                robot_armature: float | None = None, robot_integrator: str = robot.DEFAULT_INTEGRATOR,
+                robot_contact_timeconst: float | None = None) -> ParkourScene:
     """Compile the Go1 and ``terrain`` (a ``terrain.Terrain``) into one MuJoCo model.
 
     Args:
@@ -97,6 +100,8 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
             ``"urdf"``: the original's; ``robot.py``).
         robot_armature: the joints' rotor armature (kg m^2); None: the inertial model's.
         robot_integrator: ``"euler"`` or ``"implicitfast"`` (``robot.INTEGRATORS``).
+        robot_contact_timeconst: the time constant (s) of the robot's terrain contacts (None: MuJoCo's 0.02;
+            ``robot.CONTACT_TIMECONST_RANGE``).
     """
     if representation not in TERRAIN_REPRESENTATIONS:
         raise ValueError(f"unknown terrain representation {representation!r}; valid choices: "
@@ -130,7 +135,7 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
         tile_offset = offsets
         tile_hfield = np.arange(nrows * ncols, dtype=np.int32).reshape(nrows, ncols)
 
-    spec = robot.go1_spec(terrain_collision, robot_inertia, robot_armature, robot_integrator)
+    spec = robot.go1_spec(terrain_collision, robot_inertia, robot_armature, robot_integrator, robot_contact_timeconst)
     spec.option.iterations = SOLVER_ITERATIONS
     spec.option.ls_iterations = LS_ITERATIONS
     nx, ny = pieces[0].shape
@@ -158,4 +163,5 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
                         tile_margin=float(tile_margin) if representation == "tiles" else 0.0,
                         robot_inertia=robot_inertia,
                         robot_armature=robot.joint_armature(robot_inertia, robot_armature),
-                        robot_integrator=robot_integrator)
+                        robot_integrator=robot_integrator,
+                        robot_contact_timeconst=robot.check_contact_timeconst(robot_contact_timeconst))
