@@ -199,10 +199,9 @@ def _write_mcap(out: Path, results: list[EvalResult], info: dict[str, Any], cfg:
                     metrics[f"{prefix}success/{name}"] = r.success[i]
                     metrics[f"{prefix}return/{name}"] = r.returns[i]
                     metrics[f"{prefix}length/{name}"] = r.lengths[i]
-                metrics[f"{prefix}episodes/{name}"] = float(r.episodes[i])
-                if r.episodes[i] > 0:
                     for reason, shares in ends.items():
                         metrics[f"{prefix}end_{reason}/{name}"] = shares[i]
+                metrics[f"{prefix}episodes/{name}"] = float(r.episodes[i])
             metrics[f"{prefix}success/mean"] = r.mean_success
             metrics[f"{prefix}return/mean"] = r.mean_return
             logger.log_metrics(metrics, step=step)

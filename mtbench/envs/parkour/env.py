@@ -448,8 +448,11 @@ class ParkourEnv(EnvBase):
 
         unhealthy = self.sim.unhealthy()
         contact_overflow = self.sim.overflowed(HFIELD_OVERFLOW, clear=True)
-        fell = (self.roll.abs() > MAX_ROLL) | (self.pitch.abs() > MAX_PITCH) | (self.base_pos[:, 2] < MIN_BASE_Z)
-        timeout = (self.progress >= self.max_episode_steps) | (self.cur_goal_idx >= NUM_GOALS)
+        below = self.base_pos[:, 2] < MIN_BASE_Z
+        rolled = self.roll.abs() > MAX_ROLL
+        goals = self.cur_goal_idx >= NUM_GOALS
+        fell = below | rolled | (self.pitch.abs() > MAX_PITCH)
+        timeout = (self.progress >= self.max_episode_steps) | goals
         terminated = fell & ~unhealthy
         truncated = (timeout | unhealthy) & ~terminated
         done = terminated | truncated
@@ -458,9 +461,6 @@ class ParkourEnv(EnvBase):
         for name, value in terms.items():
             self.reward_terms[name].copy_(value)
         self._ep_return.add_(reward)
-        below = self.base_pos[:, 2] < MIN_BASE_Z
-        rolled = self.roll.abs() > MAX_ROLL
-        goals = self.cur_goal_idx >= NUM_GOALS
         ends = torch.stack([truncated & ~unhealthy & goals, truncated & ~unhealthy & ~goals, terminated & below,
                             terminated & ~below & rolled, terminated & ~below & ~rolled, unhealthy])
         self._accumulate_stats(done, unhealthy, contact_overflow, ends)

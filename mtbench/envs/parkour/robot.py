@@ -208,11 +208,13 @@ def model_version(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None 
     value = joint_armature(inertia, armature)
     _check_integrator(integrator)
     contact = check_contact_timeconst(contact_timeconst)
-    suffix = "" if contact is None else f"-contact-{contact:g}"
-    if inertia == DEFAULT_INERTIAL_MODEL and value == JOINT_ARMATURE and integrator == DEFAULT_INTEGRATOR:
-        return MODEL_VERSION + (f"+{suffix[1:]}" if suffix else "")
-    version = f"{MODEL_VERSION}+{inertia}-inertia-armature-{value:g}"
-    return (version if integrator == DEFAULT_INTEGRATOR else f"{version}-{integrator}") + suffix
+    parts = [MODEL_VERSION]
+    if not (inertia == DEFAULT_INERTIAL_MODEL and value == JOINT_ARMATURE and integrator == DEFAULT_INTEGRATOR):
+        joints = f"{inertia}-inertia-armature-{value:g}"
+        parts.append(joints if integrator == DEFAULT_INTEGRATOR else f"{joints}-{integrator}")
+    if contact is not None:
+        parts.append(f"contact-{contact:g}")
+    return "+".join(parts)
 
 
 def check_contact_timeconst(value: float | None) -> float | None:

@@ -164,4 +164,4 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
                         robot_inertia=robot_inertia,
                         robot_armature=robot.joint_armature(robot_inertia, robot_armature),
                         robot_integrator=robot_integrator,
-                        robot_contact_timeconst=robot.check_contact_timeconst(robot_contact_timeconst))
+                        robot_contact_timeconst=robot_contact_timeconst)  # checked by go1_spec
