@@ -149,8 +149,8 @@ def test_menagerie_model_is_unchanged() -> None:
 
 
 def test_model_version_and_choice() -> None:
-    assert robot.model_version() == robot.model_version("menagerie") == robot.MODEL_VERSION
-    assert robot.model_version("urdf") != robot.MODEL_VERSION
+    assert robot.model_version() == robot.model_version("menagerie") == robot.MODEL_VERSION + "+contact-0.01"
+    assert robot.model_version("urdf") != robot.model_version()
     assert robot.MODEL_VERSION in robot.model_version("urdf")  # a new MODEL_VERSION renews both keys
     for bad in (lambda: robot.go1_spec(inertia="isaac"), lambda: robot.model_version("isaac")):
         with pytest.raises(ValueError, match=r"^unknown robot inertia 'isaac'; valid choices: menagerie, urdf$"):
@@ -158,7 +158,7 @@ def test_model_version_and_choice() -> None:
 
 
 def test_armature_and_integrator_choices_and_versions() -> None:
-    assert robot.model_version("menagerie", 0.01, "euler") == robot.MODEL_VERSION  # the default, named
+    assert robot.model_version("menagerie", 0.01, "euler") == robot.model_version()  # the default, named
     assert robot.model_version("urdf", 0.007) == robot.model_version("urdf")  # the urdf key of before
     versions = {robot.model_version(*args) for args in (
         ("menagerie",), ("urdf",), ("menagerie", 0.0), ("menagerie", None, "implicitfast"), ("urdf", 0.0, "implicitfast"))}
@@ -224,11 +224,12 @@ def test_urdf_model_is_stable_with_its_armature_and_not_without() -> None:
 
 def test_implicitfast_stands_the_armature_free_urdf_model() -> None:
     """With ``integrator="implicitfast"`` the damping term is implicit, so the original's armature-free URDF Go1
-    stands still where the explicit (Euler) step chatters and sags (the test above); random actions flip joint
-    velocities less than Euler does without armature (measured over 8 worlds x 3 s: 15% against 49%; with the
-    armature 9.4%: the lighter legs reverse faster)."""
+    stands still where the explicit (Euler) step chatters and sags (the test above: more than half of the
+    joint-steps flip; here 0 on MuJoCo's soft contacts, 0.05% on the default stiffer ones, at the landing); random
+    actions flip joint velocities less than Euler does without armature (measured over 8 worlds x 3 s: 15% against
+    49%; with the armature 9.4%: the lighter legs reverse faster)."""
     finite, flips, heights = _chatter("urdf", 0.0, 2.0, 0.0, integrator="implicitfast")
-    assert finite and flips == 0.0 and np.all(np.abs(heights - 0.305) < 0.01), (flips, heights)
+    assert finite and flips < 0.001 and np.all(np.abs(heights - 0.305) < 0.01), (flips, heights)
     finite, flips, _ = _chatter("urdf", 0.0, 3.0, 1.0, seed=1, integrator="implicitfast")
     assert finite and flips < 0.25, flips
 
@@ -279,18 +280,20 @@ def _standing_penetration(contact_timeconst: float | None) -> float:
 
 def test_contact_time_constant_choice_version_and_stiffness() -> None:
     """``contact_timeconst`` sets the solref of every robot collision geom (which has priority over the terrain, so
-    it is the contact's); the default keeps MuJoCo's 0.02 s and the model version; a stiffer contact lets a
-    standing Go1 sink less (measured 2026-11-28: 5.0 mm at 0.02 s, 1.2 mm at 0.01 s: the depth goes as the square
-    of the time constant); bad values get one error naming the parameter and its range."""
-    default, stiff = robot.go1_spec().compile(), robot.go1_spec(contact_timeconst=0.01).compile()
+    it is the contact's): 0.01 s by default, MuJoCo's own 0.02 s with ``None`` (the model version of every stage
+    before the stiffer default); a stiffer contact lets a standing Go1 sink less (measured 2026-11-28: 5.0 mm at
+    0.02 s, 1.2 mm at 0.01 s: the depth goes as the square of the time constant); bad values get one error naming
+    the parameter and its range."""
+    soft, default = robot.go1_spec(contact_timeconst=None).compile(), robot.go1_spec().compile()
     colliding = default.geom_contype != 0
     assert int(colliding.sum()) == 4 * 4 + 2  # trunk, camera box; per leg hip, thigh, calf, foot
-    np.testing.assert_array_equal(default.geom_solref[colliding], np.tile([0.02, 1.0], (18, 1)))
-    np.testing.assert_array_equal(stiff.geom_solref[colliding], np.tile([0.01, 1.0], (18, 1)))
-    assert robot.model_version() == robot.model_version(contact_timeconst=None) == robot.MODEL_VERSION
+    np.testing.assert_array_equal(soft.geom_solref[colliding], np.tile([0.02, 1.0], (18, 1)))
+    np.testing.assert_array_equal(default.geom_solref[colliding], np.tile([0.01, 1.0], (18, 1)))
+    assert robot.model_version(contact_timeconst=None) == robot.MODEL_VERSION
+    assert robot.model_version() == robot.model_version(contact_timeconst=0.01) == robot.MODEL_VERSION + "+contact-0.01"
     versions = {robot.model_version(*args) for args in (
-        ("menagerie",), ("menagerie", None, "euler", 0.01), ("menagerie", None, "euler", 0.015),
-        ("urdf",), ("urdf", None, "euler", 0.01))}
+        ("menagerie",), ("menagerie", None, "euler", None), ("menagerie", None, "euler", 0.015),
+        ("urdf",), ("urdf", None, "euler", None))}
     assert len(versions) == 5 and all(robot.MODEL_VERSION in v for v in versions)
     soft_depth, stiff_depth = _standing_penetration(None), _standing_penetration(0.01)
     assert 0.003 < soft_depth < 0.008 and stiff_depth < 0.3 * soft_depth, (soft_depth, stiff_depth)

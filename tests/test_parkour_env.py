@@ -554,10 +554,10 @@ def test_the_robot_can_jump_higher_than_the_jump_terrains_ask() -> None:
 
 def test_contact_time_constant_reaches_the_simulated_model() -> None:
     """``robot_contact_timeconst`` (an env override) is the solref of the robot's collision geoms in the model that
-    MuJoCo Warp simulates; the default keeps MuJoCo's 0.02 s."""
-    for value, expected in ((None, 0.02), (0.01, 0.01)):
-        env = _env(robot_contact_timeconst=value)
+    MuJoCo Warp simulates: 0.01 s by default, MuJoCo's own 0.02 s with None."""
+    for kwargs, expected in (({"robot_contact_timeconst": None}, 0.02), ({}, 0.01)):
+        env = _env(**kwargs)
         solref = env.sim.model_field("geom_solref")[0]  # [ngeom, 2] of world 0
         robot_geoms = torch.as_tensor(env.scene.mjm.geom_contype != 0)
-        assert env.scene.robot_contact_timeconst == value
+        assert env.scene.robot_contact_timeconst == (None if kwargs else 0.01)
         assert torch.allclose(solref[robot_geoms], torch.tensor([expected, 1.0]).expand(int(robot_geoms.sum()), 2))

@@ -17,7 +17,7 @@ from hydra import compose, initialize_config_dir
 from cpu_runs import assert_same_metrics, compose_config
 from mtbench.envs.parkour.observation import SLICES
 from mtbench.trainer import build_trainer
-from mtbench.trainer.checkpoint import load_checkpoint
+from mtbench.trainer.checkpoint import load_checkpoint, save_checkpoint
 from mtbench.trainer.hooks import Checkpointer
 from mtbench.trainer.metrics import EpisodeStatsWindow
 from mtbench.trainer.pretraining import (
@@ -78,7 +78,7 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     # the grid and the collision set kept, the fine-tuning's curriculum dropped
     assert dict(stage.env.overrides) == {"num_rows": 2, "terrain_collision": "all", "robot_inertia": "menagerie",
                                          "robot_armature": None, "robot_integrator": "euler",
-                                         "robot_contact_timeconst": None}
+                                         "robot_contact_timeconst": 0.01}
     assert stage.grad.name == "none"  # gradient methods start from the plain architecture's weights
     assert stage.max_iterations == 1 and stage.total_frames is None and stage.seed == 0
     key = stage_key(stage)
@@ -106,11 +106,11 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     for other in (["env.overrides.robot_armature=0.0"], ["env.overrides.robot_integrator=implicitfast"],
                   ["env.overrides.robot_armature=0.0", "env.overrides.robot_integrator=implicitfast"],
                   ["env.overrides.robot_inertia=urdf", "env.overrides.robot_armature=0.0",
-                   "env.overrides.robot_integrator=implicitfast"], ["env.overrides.robot_contact_timeconst=0.01"]):
+                   "env.overrides.robot_integrator=implicitfast"], ["env.overrides.robot_contact_timeconst=null"]):
         keys.add(stage_key(flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other))))
     assert len(keys) == 6
-    assert stage_key(flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour",
-                                            "env.overrides.robot_armature=0.01"))) == key
+    for named in ("env.overrides.robot_armature=0.01", "env.overrides.robot_contact_timeconst=0.01"):
+        assert stage_key(flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", named))) == key
     # and so does a new robot model (a physics change)
     monkeypatch.setattr("mtbench.envs.parkour.robot.MODEL_VERSION", "another-model")
     assert stage_key(stage) != key
@@ -132,8 +132,8 @@ def test_parkour_envs_get_the_go1_arch_presets() -> None:
 
 @pytest.mark.parametrize(
     ("arch", "log_std", "entropy"),
-    [("mlp_parkour", 1.0, 0.001), ("multihead_parkour", 1.0, 0.001), ("moore_parkour", 0.0, 0.005),
-     ("paco_parkour", 0.0, 0.005), ("soft_modularization_parkour", 0.0, 0.005), ("care", 1.0, 0.001)],
+    [("mlp_parkour", 0.0, 0.001), ("multihead_parkour", 0.0, 0.001), ("moore_parkour", 0.0, 0.005),
+     ("paco_parkour", 0.0, 0.005), ("soft_modularization_parkour", 0.0, 0.005), ("care", 0.0, 0.001)],
 )
 def test_go1_ppo_settings_per_architecture(arch: str, log_std: float, entropy: float) -> None:
     with initialize_config_dir(config_dir=CONF, version_base="1.3"):
@@ -277,6 +277,18 @@ def test_resuming_mid_fine_tuning_continues_exactly(stage: tuple[Path, Path], tm
     a, b = expected[-1], got[-1]
     assert any(k.startswith("terrain_level/") for k in a)
     assert_same_metrics(a, b)
+    # a checkpoint written before robot_contact_timeconst existed ran on MuJoCo's soft contacts: resuming it under
+    # today's stiffer default is refused with the key named; naming the old physics resumes it
+    state = load_checkpoint(ckpt)
+    del state["config"]["env"]["overrides"]["robot_contact_timeconst"]
+    old = save_checkpoint(tmp_path / "old.pt", state)
+    plain = [c for c in common if not c.startswith("pretrained")]
+    with pytest.raises(ValueError, match=r"env\.overrides\.robot_contact_timeconst: checkpoint=None current=0\.01"):
+        build_trainer(_cfg(tmp_path / "cut", *plain, "max_iterations=3", f"resume={old}"))
+    soft = build_trainer(_cfg(tmp_path / "cut", *plain, "max_iterations=3", f"resume={old}",
+                              "env.overrides.robot_contact_timeconst=null"))
+    assert soft.iteration == 2 and soft.env.scene.robot_contact_timeconst is None
+    soft.env.close()
 
 
 # ---------------------------------------------------------------------------------------------- action clipping

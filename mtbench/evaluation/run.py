@@ -12,6 +12,7 @@ from typing import Any, Callable, Sequence
 import torch
 from omegaconf import OmegaConf
 
+from ..trainer.metrics import END_PREFIX
 from .args import EvalArgs, EvalArgumentError, parse_args
 from .episodes import EvalResult, fewest_worlds, passes_needed, run_episodes, worlds_per_task
 from .policy import EvalPolicy, checkpoint_num_tasks, load_policy, make_eval_env, read_checkpoint
@@ -146,8 +147,11 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
             _log(f"eval | {result.mode}: mean {metric} {100 * result.mean_success:.1f}% over "
                  f"{sum(result.episodes)} episodes ({time.perf_counter() - t1:.1f}s)")
             for key, values in result.extra.items():  # e.g. worlds reset after a physics failure
-                if any(v > 0 for v in values):
-                    _log(f"eval | {result.mode}: {key} per task {dict(zip(result.task_names, values))}")
+                if key.startswith(END_PREFIX):  # how the episodes ended: a table of the report
+                    continue
+                counts = {name: v for name, v in zip(result.task_names, values) if v > 0}
+                if counts:
+                    _log(f"eval | {result.mode}: {key} per task {counts}")
         videos: dict[str, Path] = {}
         frames_png = None
         clips = None

@@ -81,11 +81,13 @@ class TrainingLoop:
     bit for bit.
     """
 
-    #: config keys whose mismatch between a checkpoint and the current config makes a resume meaningless
+    #: config keys whose mismatch between a checkpoint and the current config makes a resume meaningless (the Parkour
+    #: robot's contact stiffness: a resume must not change the physics under a run)
     resume_keys: tuple[str, ...] = ("env.name", "env.num_envs", "loss.name", "loss.horizon", "arch.name", "grad.name",
-                                    "loss.clip_actions")
-    #: the value of a resume key in a config that lacks it (a checkpoint written before the key existed)
-    resume_defaults: dict[str, Any] = {"loss.clip_actions": False}
+                                    "loss.clip_actions", "env.overrides.robot_contact_timeconst")
+    #: the value of a resume key in a config that lacks it (a checkpoint written before the key existed: MuJoCo's
+    #: soft contacts before 2026-11-28)
+    resume_defaults: dict[str, Any] = {"loss.clip_actions": False, "env.overrides.robot_contact_timeconst": None}
 
     def __init__(
         self,

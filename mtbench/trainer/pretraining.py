@@ -81,10 +81,10 @@ def flat_stage_config(cfg: DictConfig) -> DictConfig:
 def stage_key(stage: DictConfig) -> str:
     """SHA-256 (hex) of what shapes the pre-trained weights: ``arch``, ``loss``, the flat env, iterations, seed and
     the robot model's version (``robot.model_version``: a physics change invalidates older stages). The env overrides
-    ``robot_inertia``, ``robot_armature``, ``robot_integrator`` and ``robot_contact_timeconst`` enter through the model version, not as overrides,
-    so the default model keeps the key it had before the overrides existed, and a ``"urdf"`` stage never shares a
-    ``"menagerie"`` one."""
-    from ..envs.parkour.robot import DEFAULT_INERTIAL_MODEL, DEFAULT_INTEGRATOR, model_version
+    ``robot_inertia``, ``robot_armature``, ``robot_integrator`` and ``robot_contact_timeconst`` enter through the
+    model version, not as overrides: a model keeps its key whether its values are named or left to the env's
+    defaults, and a ``"urdf"`` stage never shares a ``"menagerie"`` one."""
+    from ..envs.parkour.robot import CONTACT_TIMECONST, DEFAULT_INERTIAL_MODEL, DEFAULT_INTEGRATOR, model_version
 
     material = {key: _plain(stage.get(key)) for key in ("arch", "loss", "env", "max_iterations", "seed")}
     overrides = (material.get("env") or {}).get("overrides") or {}
@@ -92,7 +92,7 @@ def stage_key(stage: DictConfig) -> str:
     inertia = overrides.pop("robot_inertia", DEFAULT_INERTIAL_MODEL)
     armature = overrides.pop("robot_armature", None)
     integrator = overrides.pop("robot_integrator", DEFAULT_INTEGRATOR)
-    contact = overrides.pop("robot_contact_timeconst", None)
+    contact = overrides.pop("robot_contact_timeconst", CONTACT_TIMECONST)
     material["robot_model"] = model_version(inertia, armature, integrator, contact)
     return hashlib.sha256(json.dumps(material, sort_keys=True).encode()).hexdigest()
 

@@ -94,8 +94,9 @@ class ParkourEnv(EnvBase):
             has 0, which needs ``robot_integrator="implicitfast"``).
         robot_integrator: ``"euler"`` (default: explicit PD damping) or ``"implicitfast"`` (MuJoCo's implicit
             actuator damping, stable without armature; ``robot.INTEGRATORS``).
-        robot_contact_timeconst: the time constant in s of the robot's terrain contacts (None: MuJoCo's 0.02, soft:
-            feet sink 1-2 cm at impacts; down to 0.01, stiffer; the original's PhysX contacts are rigid).
+        robot_contact_timeconst: the time constant in s of the robot's terrain contacts (default 0.01, the stiffest
+            MuJoCo allows at this timestep, feet sink ~1 mm; None: MuJoCo's own 0.02, soft, 1-2 cm at impacts, where the
+            policies do not learn to jump, docs/parkour.md; the original's PhysX contacts are rigid).
         terrain_representation: ``"tiles"`` (one heightfield per tile, selected per world; physics in tile
             frames) or ``"grid"`` (one heightfield for the whole grid; MuJoCo Warp's heightfield contacts go wrong
             more than ~20 m from its centre: small grids only); see ``scene.py``.
@@ -133,7 +134,7 @@ class ParkourEnv(EnvBase):
         robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL,
         robot_armature: float | None = None,
         robot_integrator: str = robot.DEFAULT_INTEGRATOR,
-        robot_contact_timeconst: float | None = None,
+        robot_contact_timeconst: float | None = robot.CONTACT_TIMECONST,
         terrain_representation: str = "tiles",
         tile_margin: float = 1.0,
         domain_randomization: bool = True,

@@ -78,11 +78,13 @@ BASE_INIT_HEIGHT = 0.42  # m above the spawn origin
 JOINT_ARMATURE = 0.01  # kg m^2, Menagerie's value
 # joint limit constraints: the stiffest stable time constant at SIM_DT (2 dt) and near-hard impedance
 JOINT_LIMIT_SOLREF = (0.01, 1.0)
-# the robot's contacts with the terrain (its geoms have priority, so their solref is the contact's): MuJoCo's default
-# time constant (0.02 s, soft: a standing Go1's feet sink 5 mm, 1-2 cm at impacts) unless ``contact_timeconst`` is
-# given (0.01 s: 1.2 mm standing); PhysX's contacts (the original) are rigid. Bounds: MuJoCo needs at least 2 timesteps;
-# at 0.05 s a standing Go1 already sinks 28 mm.
-DEFAULT_CONTACT_TIMECONST = 0.02
+# the robot's contacts with the terrain (its geoms have priority, so their solref is the contact's): time constant
+# 0.01 s by default (a standing Go1's feet sink 1.2 mm), the stiffest MuJoCo allows at SIM_DT; PhysX's contacts (the
+# original) are rigid. ``None`` keeps MuJoCo's own 0.02 s (soft: 5 mm standing, 1-2 cm at impacts; the default before
+# 2026-11-29: on the jump terrains the policies stopped at the first gap, docs/parkour.md). Bounds: MuJoCo needs at
+# least 2 timesteps; at 0.05 s a standing Go1 already sinks 28 mm.
+CONTACT_TIMECONST = 0.01
+MUJOCO_CONTACT_TIMECONST = 0.02
 CONTACT_TIMECONST_RANGE = (2 * SIM_DT, 0.05)
 JOINT_LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 # integrators of the robot's physics: explicit Euler (default) or MuJoCo's implicitfast (implicit actuator damping)
@@ -201,10 +203,11 @@ def joint_armature(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None
 
 
 def model_version(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None = None,
-                  integrator: str = DEFAULT_INTEGRATOR, contact_timeconst: float | None = None) -> str:
-    """The robot model's version for the flat pre-training key: ``MODEL_VERSION`` for the default model (Menagerie's
-    inertials and armature, Euler, MuJoCo's contact time constant; its key unchanged), ``MODEL_VERSION`` plus the
-    inertial model, the armature, a non-default integrator and a given contact time constant otherwise."""
+                  integrator: str = DEFAULT_INTEGRATOR, contact_timeconst: float | None = CONTACT_TIMECONST) -> str:
+    """The robot model's version for the flat pre-training key: ``MODEL_VERSION`` for Menagerie's inertials and
+    armature, Euler and MuJoCo's own contact time constant (``contact_timeconst=None``; the key of every stage before
+    the stiffer default), ``MODEL_VERSION`` plus the inertial model, the armature, a non-default integrator and the
+    contact time constant otherwise (the default model: ``MODEL_VERSION + "+contact-0.01"``)."""
     value = joint_armature(inertia, armature)
     _check_integrator(integrator)
     contact = check_contact_timeconst(contact_timeconst)
@@ -218,14 +221,14 @@ def model_version(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None 
 
 
 def check_contact_timeconst(value: float | None) -> float | None:
-    """``value`` as a float (None: MuJoCo's default), or a ValueError naming ``robot_contact_timeconst`` and its
+    """``value`` as a float (None: MuJoCo's own 0.02 s), or a ValueError naming ``robot_contact_timeconst`` and its
     range (``CONTACT_TIMECONST_RANGE``)."""
     if value is None:
         return None
     low, high = CONTACT_TIMECONST_RANGE
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= float(value) <= high:
         raise ValueError(f"robot_contact_timeconst must be a number of seconds in [{low:g}, {high:g}] (or null: "
-                         f"MuJoCo's {DEFAULT_CONTACT_TIMECONST:g}); got {value!r}")
+                         f"MuJoCo's {MUJOCO_CONTACT_TIMECONST:g}); got {value!r}")
     return float(value)
 
 
@@ -249,7 +252,7 @@ def _collision_class(body_name: str) -> str:
 
 def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = DEFAULT_INERTIAL_MODEL,
              armature: float | None = None, integrator: str = DEFAULT_INTEGRATOR,
-             contact_timeconst: float | None = None) -> mujoco.MjSpec:
+             contact_timeconst: float | None = CONTACT_TIMECONST) -> mujoco.MjSpec:
     """Menagerie Go1 with PD actuators, URDF-like collision shapes, foot bodies and the original's joint dynamics.
 
     Args:
@@ -261,7 +264,8 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = 
             ``URDF_JOINT_ARMATURE``); below ~0.007 the explicit PD needs ``integrator="implicitfast"``.
         integrator: ``"euler"`` (default) or ``"implicitfast"`` (``INTEGRATORS``; module docstring).
         contact_timeconst: the time constant (s) of the robot's terrain contacts (its collision geoms' solref,
-            damping ratio 1) instead of MuJoCo's 0.02; smaller is stiffer (``CONTACT_TIMECONST_RANGE``).
+            damping ratio 1; ``CONTACT_TIMECONST`` by default, ``None``: MuJoCo's own 0.02); smaller is stiffer
+            (``CONTACT_TIMECONST_RANGE``).
     """
     if terrain_collision not in TERRAIN_COLLISIONS:
         raise ValueError(f"unknown terrain_collision {terrain_collision!r}; valid choices: "
