@@ -19,7 +19,7 @@ from torchrl.data import Bounded
 from cpu_runs import train_on_cpu
 from envs_for_tests import SyntheticMTEnv
 from mtbench.evaluation import EvalArgumentError, evaluate, main, parse_args, run_episodes
-from mtbench.evaluation.policy import read_checkpoint
+from mtbench.evaluation.policy import eval_env_config, read_checkpoint
 from mtbench.evaluation.render import BACKGROUND, tile
 from mtbench.evaluation.video import read_video, write_video
 from mtbench.logging import iter_messages, read_scalars
@@ -325,3 +325,15 @@ def test_report_tables_leave_out_task_slots_without_worlds_and_give_end_shares()
     assert ends[0] == ["task", "time", "roll"] and ends[2:] == [["a", "50.0%", "50.0%"], ["c", "25.0%", "75.0%"]]
     no_ends = EvalResult("sampled", "success", ["a"], [1], [1.0], [0.0], [1.0])
     assert end_table([no_ends]) == "" and no_ends.end_shares() == {}
+
+
+def test_eval_env_keeps_the_contacts_a_parkour_run_trained_on() -> None:
+    """A Parkour run's config from before ``robot_contact_timeconst`` existed (MuJoCo's soft contacts then) is
+    evaluated on soft contacts, not on today's stiffer default; a named value is kept; Meta-World is untouched."""
+    old = eval_env_config({"name": "parkour_easy", "num_envs": 4096, "overrides": {"num_rows": 10}}, 42)
+    assert old.num_envs == 42 and old.overrides.random_start_progress is False
+    assert "robot_contact_timeconst" in old.overrides and old.overrides.robot_contact_timeconst is None
+    named = eval_env_config({"name": ["box_jump_even", "flat"], "num_envs": 8,
+                             "overrides": {"robot_contact_timeconst": 0.01}}, 2)
+    assert named.overrides.robot_contact_timeconst == 0.01
+    assert "robot_contact_timeconst" not in eval_env_config({"name": "mt10_rand", "num_envs": 8}, 10).overrides

@@ -12,6 +12,7 @@ from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import InteractionType, set_interaction_type
 from torch import nn
 
+from ..envs.make import is_parkour
 from ..trainer.actor_critic import GaussianPolicyHead, make_actor
 from ..trainer.builder import ACTION_CLIP
 from ..trainer.checkpoint import load_checkpoint
@@ -57,12 +58,15 @@ def checkpoint_num_tasks(state: Mapping[str, Any]) -> int | None:
 
 def eval_env_config(config: Mapping[str, Any], num_envs: int) -> DictConfig:
     """The run's ``env`` config with ``num_envs`` worlds and no staggered start (every world starts its first
-    episode at step 0: ``random_start_progress=False``)."""
+    episode at step 0: ``random_start_progress=False``). A Parkour run whose config predates
+    ``robot_contact_timeconst`` (2026-11-28) trained on MuJoCo's soft contacts and is evaluated on them."""
     env_cfg = OmegaConf.create(copy.deepcopy(OmegaConf.to_container(OmegaConf.create(dict(config)), resolve=True)))
     env_cfg.num_envs = int(num_envs)
     if env_cfg.get("overrides") is None:
         env_cfg.overrides = {}
     env_cfg.overrides.random_start_progress = False
+    if is_parkour(env_cfg.name) and "robot_contact_timeconst" not in env_cfg.overrides:
+        env_cfg.overrides.robot_contact_timeconst = None
     return env_cfg
 
 
