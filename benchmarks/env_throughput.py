@@ -144,7 +144,7 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
             num_rows: int = 10, compile_stages: bool | str = False, phases: bool = False, group_models: bool = False,
             robot_joints: tuple[str, float | None, str] = (parkour_robot.DEFAULT_INERTIAL_MODEL, None,
                                                            parkour_robot.DEFAULT_INTEGRATOR),
-            robot_contact: float | None = parkour_robot.CONTACT_TIMECONST) -> dict:
+            robot_contact: float | None = parkour_robot.DEFAULT_CONTACT_TIMECONST) -> dict:
     parkour = is_parkour(env_name)
     if parkour:
         if policy == "scripted":
@@ -157,7 +157,7 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         collision = f"{terrain_collision} on {terrain_representation}"
         if robot_joints != (parkour_robot.DEFAULT_INERTIAL_MODEL, None, parkour_robot.DEFAULT_INTEGRATOR):
             collision += f"; {inertia}, armature {parkour_robot.joint_armature(inertia, armature):g}, {integrator}"
-        if robot_contact != parkour_robot.CONTACT_TIMECONST:
+        if robot_contact != parkour_robot.DEFAULT_CONTACT_TIMECONST:
             collision += f"; contacts {'MuJoCo soft 0.02' if robot_contact is None else f'{robot_contact:g}'} s"
     else:
         if policy in ("trot", "stand"):
@@ -242,9 +242,9 @@ def main() -> None:
     parser.add_argument("--robot-integrator", choices=tuple(parkour_robot.INTEGRATORS),
                         default=parkour_robot.DEFAULT_INTEGRATOR, help="Parkour: euler or implicitfast")
     parser.add_argument("--robot-contact-timeconst", type=lambda v: None if v == "null" else float(v),
-                        default=parkour_robot.CONTACT_TIMECONST,
+                        default=parkour_robot.DEFAULT_CONTACT_TIMECONST,
                         help="Parkour: the robot's contact time constant in s, or null for MuJoCo's soft 0.02 "
-                             f"(default {parkour_robot.CONTACT_TIMECONST:g})")
+                             f"(default {parkour_robot.DEFAULT_CONTACT_TIMECONST:g})")
     parser.add_argument("--compile-stages", action=argparse.BooleanOptionalAction, default=None,
                         help="Meta-World: torch.compile the env's torch stages (default: the env config's setting)")
     parser.add_argument("--group-models", action=argparse.BooleanOptionalAction, default=None,

@@ -84,7 +84,8 @@ def stage_key(stage: DictConfig) -> str:
     ``robot_inertia``, ``robot_armature``, ``robot_integrator`` and ``robot_contact_timeconst`` enter through the
     model version, not as overrides: a model keeps its key whether its values are named or left to the env's
     defaults, and a ``"urdf"`` stage never shares a ``"menagerie"`` one."""
-    from ..envs.parkour.robot import CONTACT_TIMECONST, DEFAULT_INERTIAL_MODEL, DEFAULT_INTEGRATOR, model_version
+    from ..envs.parkour.robot import (DEFAULT_CONTACT_TIMECONST, DEFAULT_INERTIAL_MODEL, DEFAULT_INTEGRATOR,
+                                      model_version)
 
     material = {key: _plain(stage.get(key)) for key in ("arch", "loss", "env", "max_iterations", "seed")}
     overrides = (material.get("env") or {}).get("overrides") or {}
@@ -92,7 +93,7 @@ def stage_key(stage: DictConfig) -> str:
     inertia = overrides.pop("robot_inertia", DEFAULT_INERTIAL_MODEL)
     armature = overrides.pop("robot_armature", None)
     integrator = overrides.pop("robot_integrator", DEFAULT_INTEGRATOR)
-    contact = overrides.pop("robot_contact_timeconst", CONTACT_TIMECONST)
+    contact = overrides.pop("robot_contact_timeconst", DEFAULT_CONTACT_TIMECONST)
     material["robot_model"] = model_version(inertia, armature, integrator, contact)
     return hashlib.sha256(json.dumps(material, sort_keys=True).encode()).hexdigest()
 

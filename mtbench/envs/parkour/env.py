@@ -134,7 +134,7 @@ class ParkourEnv(EnvBase):
         robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL,
         robot_armature: float | None = None,
         robot_integrator: str = robot.DEFAULT_INTEGRATOR,
-        robot_contact_timeconst: float | None = robot.CONTACT_TIMECONST,
+        robot_contact_timeconst: float | None = robot.DEFAULT_CONTACT_TIMECONST,
         terrain_representation: str = "tiles",
         tile_margin: float = 1.0,
         domain_randomization: bool = True,

@@ -83,7 +83,7 @@ JOINT_LIMIT_SOLREF = (0.01, 1.0)
 # original) are rigid. ``None`` keeps MuJoCo's own 0.02 s (soft: 5 mm standing, 1-2 cm at impacts; the default before
 # 2026-11-29: on the jump terrains the policies stopped at the first gap, docs/parkour.md). Bounds: MuJoCo needs at
 # least 2 timesteps; at 0.05 s a standing Go1 already sinks 28 mm.
-CONTACT_TIMECONST = 0.01
+DEFAULT_CONTACT_TIMECONST = 0.01
 MUJOCO_CONTACT_TIMECONST = 0.02
 CONTACT_TIMECONST_RANGE = (2 * SIM_DT, 0.05)
 JOINT_LIMIT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
@@ -203,7 +203,8 @@ def joint_armature(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None
 
 
 def model_version(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None = None,
-                  integrator: str = DEFAULT_INTEGRATOR, contact_timeconst: float | None = CONTACT_TIMECONST) -> str:
+                  integrator: str = DEFAULT_INTEGRATOR,
+                  contact_timeconst: float | None = DEFAULT_CONTACT_TIMECONST) -> str:
     """The robot model's version for the flat pre-training key: ``MODEL_VERSION`` for Menagerie's inertials and
     armature, Euler and MuJoCo's own contact time constant (``contact_timeconst=None``; the key of every stage before
     the stiffer default), ``MODEL_VERSION`` plus the inertial model, the armature, a non-default integrator and the
@@ -252,7 +253,7 @@ def _collision_class(body_name: str) -> str:
 
 def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = DEFAULT_INERTIAL_MODEL,
              armature: float | None = None, integrator: str = DEFAULT_INTEGRATOR,
-             contact_timeconst: float | None = CONTACT_TIMECONST) -> mujoco.MjSpec:
+             contact_timeconst: float | None = DEFAULT_CONTACT_TIMECONST) -> mujoco.MjSpec:
     """Menagerie Go1 with PD actuators, URDF-like collision shapes, foot bodies and the original's joint dynamics.
 
     Args:
@@ -264,7 +265,7 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = 
             ``URDF_JOINT_ARMATURE``); below ~0.007 the explicit PD needs ``integrator="implicitfast"``.
         integrator: ``"euler"`` (default) or ``"implicitfast"`` (``INTEGRATORS``; module docstring).
         contact_timeconst: the time constant (s) of the robot's terrain contacts (its collision geoms' solref,
-            damping ratio 1; ``CONTACT_TIMECONST`` by default, ``None``: MuJoCo's own 0.02); smaller is stiffer
+            damping ratio 1; ``DEFAULT_CONTACT_TIMECONST`` by default, ``None``: MuJoCo's own 0.02); smaller is stiffer
             (``CONTACT_TIMECONST_RANGE``).
     """
     if terrain_collision not in TERRAIN_COLLISIONS:

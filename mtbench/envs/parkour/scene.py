@@ -70,7 +70,7 @@ class ParkourScene:
     robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL
     robot_armature: float = robot.JOINT_ARMATURE
     robot_integrator: str = robot.DEFAULT_INTEGRATOR
-    robot_contact_timeconst: float | None = robot.CONTACT_TIMECONST
+    robot_contact_timeconst: float | None = robot.DEFAULT_CONTACT_TIMECONST
 
     @property
     def contact_pairs(self) -> int:
@@ -86,7 +86,7 @@ def _tile_grid_shape(terrain) -> tuple[int, int]:
 def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISION, representation: str = "tiles",
                 tile_margin: float = 1.0, robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL,
                 robot_armature: float | None = None, robot_integrator: str = robot.DEFAULT_INTEGRATOR,
-                robot_contact_timeconst: float | None = robot.CONTACT_TIMECONST) -> ParkourScene:
+                robot_contact_timeconst: float | None = robot.DEFAULT_CONTACT_TIMECONST) -> ParkourScene:
     """Compile the Go1 and ``terrain`` (a ``terrain.Terrain``) into one MuJoCo model.
 
     Args:
@@ -100,8 +100,9 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
             ``"urdf"``: the original's; ``robot.py``).
         robot_armature: the joints' rotor armature (kg m^2); None: the inertial model's.
         robot_integrator: ``"euler"`` or ``"implicitfast"`` (``robot.INTEGRATORS``).
-        robot_contact_timeconst: the time constant (s) of the robot's terrain contacts (``robot.CONTACT_TIMECONST``
-            by default, None: MuJoCo's own 0.02; ``robot.CONTACT_TIMECONST_RANGE``).
+        robot_contact_timeconst: the time constant (s) of the robot's terrain contacts
+            (``robot.DEFAULT_CONTACT_TIMECONST`` by default, None: MuJoCo's own 0.02;
+            ``robot.CONTACT_TIMECONST_RANGE``).
     """
     if representation not in TERRAIN_REPRESENTATIONS:
         raise ValueError(f"unknown terrain representation {representation!r}; valid choices: "
