@@ -9,9 +9,8 @@ from typing import Any, Callable
 import torch
 from tensordict import TensorDictBase
 
-from ..trainer.metrics import END_PREFIX
+from ..trainer.metrics import END_PREFIX, STAT_KEYS
 
-STAT_KEYS = ("episodes", "success", "return", "length")
 # optional per-task counters an env may report besides STAT_KEYS (summed and reported when present), and any
 # ``end_<reason>`` count (how the counted episodes ended, one reason each: Parkour)
 EXTRA_STAT_KEYS = ("unhealthy", "nonfinite_actions")

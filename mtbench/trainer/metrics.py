@@ -124,14 +124,14 @@ class EpisodeStatsWindow:
 
     def mean_success(self) -> float:
         """Average over tasks (with finished episodes in the window) of the per-task success rate."""
-        rate = self.per_task()["success_rate"]
-        valid = ~torch.isnan(rate)
-        return float(rate[valid].mean()) if bool(valid.any()) else float("nan")
+        return float(torch.nanmean(self.per_task()["success_rate"]))
 
     def summary(self) -> dict[str, float]:
         """Flat metrics: ``success/<task>``, ``return/<task>``, ``length/<task>``, ``success/mean``,
         ``return/mean`` (tasks without finished episodes are omitted); with a curriculum also
-        ``terrain_level/<task>``, ``terrain_level_max/<task>`` and ``terrain_level/mean``."""
+        ``terrain_level/<task>``, ``terrain_level_max/<task>`` and ``terrain_level/mean``; with end reasons
+        ``end_<reason>/<task>`` and ``end_<reason>/mean``. A mean is over the tasks with finished episodes (NaN
+        without any)."""
         stats = self.per_task()
         out: dict[str, float] = {}
         for i, name in enumerate(self.task_names):
@@ -146,16 +146,10 @@ class EpisodeStatsWindow:
                     out[f"{key}/{name}"] = float(stats[key][i])
         out["success/mean"] = self.mean_success()
         for key in self.end_keys if self._ends else ():
-            share = stats[key]
-            valid = ~torch.isnan(share)
-            out[f"{key}/mean"] = float(share[valid].mean()) if bool(valid.any()) else float("nan")
-        ret = stats["return"]
-        valid = ~torch.isnan(ret)
-        out["return/mean"] = float(ret[valid].mean()) if bool(valid.any()) else float("nan")
+            out[f"{key}/mean"] = float(torch.nanmean(stats[key]))
+        out["return/mean"] = float(torch.nanmean(stats["return"]))
         if "terrain_level" in stats:
-            level = stats["terrain_level"]
-            valid = ~torch.isnan(level)
-            out["terrain_level/mean"] = float(level[valid].mean()) if bool(valid.any()) else float("nan")
+            out["terrain_level/mean"] = float(torch.nanmean(stats["terrain_level"]))
         return out
 
     def table(self) -> str:

@@ -462,8 +462,9 @@ class ParkourEnv(EnvBase):
         for name, value in terms.items():
             self.reward_terms[name].copy_(value)
         self._ep_return.add_(reward)
-        ends = torch.stack([truncated & ~unhealthy & goals, truncated & ~unhealthy & ~goals, terminated & below,
-                            terminated & ~below & rolled, terminated & ~below & ~rolled, unhealthy])
+        ran_out = truncated & ~unhealthy  # all goals or the episode length
+        ends = torch.stack([ran_out & goals, ran_out & ~goals, terminated & below, terminated & ~below & rolled,
+                            terminated & ~below & ~rolled, unhealthy])
         self._accumulate_stats(done, unhealthy, contact_overflow, ends)
         if self.curriculum:
             new = cl.update_levels(self.level, self.cur_goal_idx, NUM_GOALS, self.num_rows,
