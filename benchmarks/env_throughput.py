@@ -212,6 +212,16 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
     }
 
 
+def _seconds_or_null(value: str) -> float | None:
+    """``--robot-contact-timeconst``: a number of seconds, or ``null`` (MuJoCo's own time constant)."""
+    if value == "null":
+        return None
+    try:
+        return float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a number of seconds or null, got {value!r}") from None
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--env", default="mt10_rand",
@@ -241,7 +251,7 @@ def main() -> None:
                         help="Parkour: joint armature in kg m^2 (default: the inertial model's)")
     parser.add_argument("--robot-integrator", choices=tuple(parkour_robot.INTEGRATORS),
                         default=parkour_robot.DEFAULT_INTEGRATOR, help="Parkour: euler or implicitfast")
-    parser.add_argument("--robot-contact-timeconst", type=lambda v: None if v == "null" else float(v),
+    parser.add_argument("--robot-contact-timeconst", type=_seconds_or_null,
                         default=parkour_robot.DEFAULT_CONTACT_TIMECONST,
                         help="Parkour: the robot's contact time constant in s, or null for MuJoCo's soft 0.02 "
                              f"(default {parkour_robot.DEFAULT_CONTACT_TIMECONST:g})")
