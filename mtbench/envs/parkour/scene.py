@@ -38,6 +38,9 @@ TERRAIN_FRICTION = 1.0  # the original's terrain material (robot geoms have prio
 # on the GPU the solver exits early through a conditional graph node)
 SOLVER_ITERATIONS = 10
 LS_ITERATIONS = 20
+# MuJoCo's own cap on GJK/EPA iterations, which the heightfield collisions (most of a Parkour step's GPU time) run per
+# prism; 12 and 6 were measured no faster on the GPU (docs/parkour.md, "Contact stiffness")
+CCD_ITERATIONS = 35
 SUN_DIRECTION = (0.4, 0.3, -1.0)  # the scene's directional light (rendering only)
 
 
@@ -139,6 +142,7 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
     spec = robot.go1_spec(terrain_collision, robot_inertia, robot_armature, robot_integrator, robot_contact_timeconst)
     spec.option.iterations = SOLVER_ITERATIONS
     spec.option.ls_iterations = LS_ITERATIONS
+    spec.option.ccd_iterations = CCD_ITERATIONS
     nx, ny = pieces[0].shape
     rx, ry = 0.5 * (nx - 1) * hs, 0.5 * (ny - 1) * hs
     for k, piece in enumerate(pieces):
