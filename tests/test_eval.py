@@ -21,7 +21,7 @@ from envs_for_tests import SyntheticMTEnv
 from mtbench.evaluation import EvalArgumentError, evaluate, main, parse_args, run_episodes
 from mtbench.evaluation.policy import eval_env_config, read_checkpoint
 from mtbench.evaluation.render import BACKGROUND, tile
-from mtbench.evaluation.video import read_video, write_video
+from mtbench.evaluation.video import contact_sheet, read_video, write_video
 from mtbench.logging import iter_messages, read_scalars
 from mtbench.trainer.checkpoint import CHECKPOINT_VERSION, save_checkpoint
 
@@ -175,6 +175,15 @@ def test_video_files_keep_every_frame_and_grids_tile_row_major(tmp_path: Path) -
     grid = tile(worlds, 2)
     assert grid.shape == (4, 6, 3)
     assert grid[0, 0, 0] == 0 and grid[0, 3, 0] == 1 and grid[2, 0, 0] == 2 and grid[3, 5, 0] == 3
+
+
+def test_contact_sheet_labels_stay_in_their_cells() -> None:
+    frames = [np.full((20, 60, 3), 200, dtype=np.uint8)] * 2
+    sheet = contact_sheet(frames, ["stepping_stones_randomly_arranged (step 75)", ""])
+    assert sheet.shape == (36, 120, 3)  # a 16-pixel label strip above each frame
+    first_strip, second_strip = sheet[:16, :60], sheet[:16, 60:]
+    assert (first_strip < 128).any()  # the (shortened) label is drawn
+    assert (second_strip == 255).all()  # and nothing of it reaches the next cell
 
 
 def test_run_episodes_counts_full_episodes_per_task() -> None:

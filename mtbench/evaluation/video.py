@@ -119,8 +119,17 @@ def contact_sheet(frames: Sequence[np.ndarray], labels: Sequence[str], columns: 
     for i, (frame, label) in enumerate(zip(frames, labels)):
         x, y = (i % columns) * w, (i // columns) * (h + strip)
         sheet.paste(Image.fromarray(np.asarray(frame, dtype=np.uint8)), (x, y + strip))
-        draw.text((x + 4, y + 2), str(label), fill=(0, 0, 0))
+        draw.text((x + 4, y + 2), _fit(draw, str(label), w - 8), fill=(0, 0, 0))
     return np.asarray(sheet)
+
+
+def _fit(draw, text: str, width: float) -> str:
+    """``text``, shortened with ".." at the end where it is wider than ``width`` pixels (a label stays in its cell)."""
+    if draw.textlength(text) <= width:
+        return text
+    while text and draw.textlength(text + "..") > width:
+        text = text[:-1]
+    return text + ".."
 
 
 def write_png(path: Path, image: np.ndarray) -> Path:
