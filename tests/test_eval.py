@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,7 @@ from torchrl.data import Bounded
 from cpu_runs import train_on_cpu
 from envs_for_tests import SyntheticMTEnv
 from mtbench.evaluation import EvalArgumentError, evaluate, main, parse_args, run_episodes
+from mtbench.evaluation.run import video_schedule
 from mtbench.evaluation.policy import eval_env_config, read_checkpoint
 from mtbench.evaluation.render import BACKGROUND, tile
 from mtbench.evaluation.video import contact_sheet, read_video, write_video
@@ -163,6 +165,46 @@ def test_videos_have_the_requested_frames_and_show_the_scene(noiseless_video_rep
     for task in TASKS:
         frames = [m for t, m in messages if t == f"/video/eval/{task}"]
         assert [m["frame_index"] for m in frames] == list(range(8)) and frames[0]["format"] == "png"
+
+
+def test_video_every_records_every_kth_step_of_the_same_episode(checkpoint: Path, noiseless_video_report,
+                                                               tmp_path: Path) -> None:
+    def silence(policy) -> None:  # the fixture's noiseless policy: both evaluations see the same episode
+        with torch.no_grad():
+            policy.head.log_std.fill_(-30.0)
+
+    args = parse_args([f"checkpoint={checkpoint}", "episodes=2", "device=cpu", f"out={tmp_path}", "video=true",
+                       "video_frames=4", "video_every=2", "video_size=64x48", "seed=3"])
+    report = evaluate(args, policy_hook=silence)
+    assert report.info["video"]["every"] == 2 and noiseless_video_report.info["video"]["every"] == 1
+    for task, path in report.videos.items():
+        strided, full = read_video(path).astype(float), read_video(noiseless_video_report.videos[task]).astype(float)
+        assert strided.shape[0] == 4
+        # steps 0, 2, 4, 6 (the 2-pixel progress bar along the bottom differs)
+        assert np.abs(strided[:, :-2] - full[0:8:2, :-2]).mean() < 2.0
+        assert np.abs(strided[1:, :-2] - full[1:8:2, :-2][:3]).mean() > np.abs(strided[1:, :-2] - full[2:8:2, :-2]).mean()
+
+
+@pytest.mark.parametrize("steps, frames, every, expected", [
+    (150, None, None, (150, 1)),    # Meta-World: the whole episode, every step
+    (2000, None, None, (143, 14)),  # Parkour: the whole episode in at most 150 frames
+    (2000, 8, None, (8, 1)),        # frames given: the first 8 steps
+    (2000, None, 100, (20, 100)),   # stride given: the whole episode at that stride
+    (2000, 30, 10, (30, 10)),
+])
+def test_video_schedule_known_answers(steps: int, frames: int | None, every: int | None,
+                                      expected: tuple[int, int]) -> None:
+    assert video_schedule(steps, frames, every) == expected
+
+
+@pytest.mark.parametrize("frames, every, message", [
+    (21, 100, "video_frames=21 is out of range; video_frames must be an integer in [1, 20] (the episode length 2000 / "
+              "video_every 100, rounded up)"),
+    (None, 2001, "video_every=2001 is out of range; video_every must be an integer in [1, 2000]"),
+])
+def test_video_schedule_names_the_parameter_and_its_range(frames: int | None, every: int, message: str) -> None:
+    with pytest.raises(EvalArgumentError, match=re.escape(message)):
+        video_schedule(2000, frames, every)
 
 
 def test_video_files_keep_every_frame_and_grids_tile_row_major(tmp_path: Path) -> None:

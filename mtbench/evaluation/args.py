@@ -33,7 +33,10 @@ class EvalArgs:
         num_envs: worlds in total (split over the tasks as in training); ``None`` = ``episodes * num_tasks``.
         seed: env and sampling seed; ``None`` = the training seed + 1 (worlds the policy was not trained on).
         out: output directory; ``None`` = ``<checkpoint dir>/eval``.
-        video_frames: frames per video (1 .. episode length; ``None`` = the whole first episode, at most 150).
+        video_frames: frames per video (1 .. episode length / ``video_every``; ``None`` = the whole first episode in
+            at most 150 frames).
+        video_every: record every k-th step (``None``: 1 where ``video_frames`` is given, else the smallest k that
+            fits the whole first episode into 150 frames: 1 for Meta-World's 150 steps, 14 for Parkour's 2000).
         video_size: ``(width, height)``; ``None`` = 320x240 on CUDA, 160x120 on the CPU.
         video_fps: frame rate of the written videos.
         video_grid: 1 (first world of each task) or 2 (2x2 grid of its first four worlds).
@@ -48,6 +51,7 @@ class EvalArgs:
     seed: int | None = None
     out: Path | None = None
     video_frames: int | None = None
+    video_every: int | None = None
     video_size: tuple[int, int] | None = None
     video_fps: int = 30
     video_grid: int = 1
@@ -56,7 +60,7 @@ class EvalArgs:
 KEYS = tuple(f.name for f in dataclasses.fields(EvalArgs))
 USAGE = (
     "usage: python examples/eval.py checkpoint=PATH [episodes=N] [deterministic=true|false] [video=true|false] "
-    "[device=auto|cpu|cuda|cuda:I] [num_envs=N] [seed=S] [out=DIR] [video_frames=N] [video_size=WxH] "
+    "[device=auto|cpu|cuda|cuda:I] [num_envs=N] [seed=S] [out=DIR] [video_frames=N] [video_every=K] [video_size=WxH] "
     "[video_fps=N] [video_grid=1|2]"
 )
 
@@ -156,7 +160,7 @@ def parse_args(argv: Sequence[str]) -> EvalArgs:
             if not text.strip():
                 raise EvalArgumentError("out= is empty; give a directory (created if missing)")
             values[key] = Path(text).expanduser()
-        elif key == "video_frames":
+        elif key in ("video_frames", "video_every"):
             values[key] = _int(key, text, low=1)
         elif key == "video_size":
             values[key] = _size(text)

@@ -4,6 +4,7 @@ videos and the MCAP log."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 import time
 from pathlib import Path
@@ -42,6 +43,24 @@ class EvalReport:
 
 #: seconds between two progress lines of a long evaluation pass (stderr)
 PROGRESS_EVERY_S = 15.0
+
+
+def video_schedule(steps: int, frames: int | None = None, every: int | None = None) -> tuple[int, int]:
+    """``(frames, every)`` of the videos of ``steps``-step episodes: every ``every``-th step is recorded, ``frames``
+    of them. Defaults: the whole episode in at most ``DEFAULT_VIDEO_FRAMES`` frames (``every`` 1 where ``frames`` is
+    given). Raises ``EvalArgumentError`` naming ``video_frames`` / ``video_every`` and their range."""
+    if every is None:
+        every = 1 if frames is not None else math.ceil(steps / DEFAULT_VIDEO_FRAMES)
+    if not 1 <= every <= steps:
+        raise EvalArgumentError(f"video_every={every} is out of range; video_every must be an integer in [1, {steps}] "
+                                f"(the episode length)")
+    most = math.ceil(steps / every)
+    frames = min(DEFAULT_VIDEO_FRAMES, most) if frames is None else frames
+    if not 1 <= frames <= most:
+        where = "(the episode length)" if every == 1 else f"(the episode length {steps} / video_every {every}, rounded up)"
+        raise EvalArgumentError(f"video_frames={frames} is out of range; video_frames must be an integer in "
+                                f"[1, {most}] {where}")
+    return frames, every
 
 
 def _device(name: str) -> torch.device:
@@ -90,10 +109,7 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
             raise EvalArgumentError(f"video=true renders envs simulated by MuJoCo Warp (Meta-World, Parkour); "
                                     f"{type(env).__name__} has no simulator to render: run with video=false")
         if args.video:
-            frames = args.video_frames if args.video_frames is not None else min(DEFAULT_VIDEO_FRAMES, steps)
-            if not 1 <= frames <= steps:
-                raise EvalArgumentError(f"video_frames={frames} is out of range; video_frames must be an integer in "
-                                        f"[1, {steps}] (the episode length)")
+            frames, every = video_schedule(steps, args.video_frames, args.video_every)
             fewest = fewest_worlds(env)
             if args.video_grid ** 2 > fewest:
                 raise EvalArgumentError(
@@ -101,7 +117,7 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
                     f"block has {fewest}; use video_grid=1 or more episodes / num_envs"
                 )
             width, height = args.video_size or (VIDEO_SIZE_CUDA if device.type == "cuda" else VIDEO_SIZE_CPU)
-            recorder = VideoRecorder(env, frames, width, height, grid=args.video_grid)
+            recorder = VideoRecorder(env, frames, width, height, grid=args.video_grid, every=every)
         metric = str(getattr(env, "success_metric", "success"))
         info: dict[str, Any] = {
             "checkpoint": str(Path(args.checkpoint).resolve()),
@@ -161,11 +177,11 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
             for name, clip in zip(names, clips):
                 videos[name] = write_video(out / "videos" / name, clip, args.video_fps)
             middle = clips.shape[1] // 2
-            labels = [f"{name} (step {middle})" for name in names]
+            labels = [f"{name} (step {middle * recorder.every})" for name in names]
             sheet = contact_sheet(list(clips[:, middle].numpy()), labels, columns=min(len(labels), SHEET_COLUMNS))
             frames_png = write_png(out / "videos" / "frames.png", sheet)
             info["videos"] = {k: str(v) for k, v in videos.items()}
-            info["video"] = {"frames": int(clips.shape[1]), "size": list(clips.shape[2:4][::-1]),
+            info["video"] = {"frames": int(clips.shape[1]), "every": recorder.every, "size": list(clips.shape[2:4][::-1]),
                              "grid": args.video_grid, "fps": args.video_fps, "policy": "deterministic",
                              "episode": "first of each of the first worlds of every task block"}
     finally:
@@ -243,4 +259,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-__all__ = ["EvalReport", "evaluate", "main"]
+__all__ = ["DEFAULT_VIDEO_FRAMES", "EvalReport", "evaluate", "main", "video_schedule"]

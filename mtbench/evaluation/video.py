@@ -14,18 +14,21 @@ from .render import CameraSpec, EnvRenderer, tile
 
 
 class VideoRecorder:
-    """Frames of the first ``grid * grid`` worlds of every task (every task with worlds, ``task_ids``) during the first
-    ``frames`` steps of an episode.
+    """Frames of the first ``grid * grid`` worlds of every task (every task with worlds, ``task_ids``): every
+    ``every``-th step of an episode (steps 0, every, 2 * every, ...), ``frames`` of them.
 
-    ``capture(t)`` renders the current state into frame ``t`` (on the env's device, no host sync);
+    ``capture(t)`` renders the state at step ``t`` into frame ``t // every`` where it is one of those steps (on the
+    env's device, no host sync);
     ``videos()`` returns uint8 ``[num_tasks, frames, H * grid, W * grid, 3]`` on the CPU.
     """
 
     def __init__(self, env: Any, frames: int, width: int, height: int, *, grid: int = 1,
-                 camera: CameraSpec | None = None) -> None:
+                 camera: CameraSpec | None = None, every: int = 1) -> None:
         if frames < 1:
             raise ValueError(f"frames must be >= 1, got {frames}")
-        self.frames, self.grid = int(frames), int(grid)
+        if every < 1:
+            raise ValueError(f"every must be >= 1, got {every}")
+        self.frames, self.grid, self.every = int(frames), int(grid), int(every)
         self.renderer = EnvRenderer(env, width, height, worlds_per_task=grid * grid, camera=camera)
         self.num_tasks = self.renderer.num_tasks
         self.task_ids = self.renderer.task_ids  # the rendered tasks, in the order of the videos
@@ -35,9 +38,10 @@ class VideoRecorder:
         self.captured = 0
 
     def capture(self, t: int) -> None:
-        if t < self.frames:
-            self._buffer[t] = self.renderer.render()
-            self.captured = max(self.captured, t + 1)
+        k, off = divmod(t, self.every)
+        if off == 0 and k < self.frames:
+            self._buffer[k] = self.renderer.render()
+            self.captured = max(self.captured, k + 1)
 
     def videos(self) -> torch.Tensor:
         frames = tile(self._buffer[: self.captured], self.grid)  # [T, K, H, W, 3]
