@@ -111,7 +111,8 @@ def run(state: dict, setting: str, num_envs: int, steps: int, device: torch.devi
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("checkpoint", help="a Parkour training checkpoint (full or slim)")
-    p.add_argument("settings", nargs="+", help="CONTACT[@SOLVER_ITERATIONS][#CCD_ITERATIONS], e.g. 0.01 null 0.01@30")
+    p.add_argument("settings", nargs="+",
+                   help="CONTACT[@SOLVER_ITERATIONS][#CCD_ITERATIONS], e.g. 0.01 null 0.01@30")
     p.add_argument("--num-envs", type=int, default=4096)
     p.add_argument("--steps", type=int, default=1000, help="timed env steps per setting")
     p.add_argument("--device", default="auto")
@@ -127,8 +128,9 @@ def main() -> None:
     name = torch.cuda.get_device_name(device) if device.type == "cuda" else "cpu"
     print(f"device: {name}; torch {torch.__version__}; {time.strftime('%Y-%m-%d')}; {args.num_envs} worlds x "
           f"{args.steps} steps per setting; checkpoint {args.checkpoint}")
-    print("| contacts (s) | solver iterations | ccd iterations | ms per env step | unhealthy resets | per M world-steps "
-          "| non-finite / runaway / fatal overflow (world-steps) | non-fatal HFIELD overflow (share of world-steps) |")
+    print("| contacts (s) | solver iterations | ccd iterations | ms per env step | unhealthy resets "
+          "| per M world-steps | non-finite / runaway / fatal overflow (world-steps) "
+          "| non-fatal HFIELD overflow (share of world-steps) |")
     print("|---|---:|---:|---:|---:|---:|---|---:|")
     rows = []
     for s in args.settings:

@@ -57,7 +57,8 @@ def video_schedule(steps: int, frames: int | None = None, every: int | None = No
     most = math.ceil(steps / every)
     frames = min(DEFAULT_VIDEO_FRAMES, most) if frames is None else frames
     if not 1 <= frames <= most:
-        where = "(the episode length)" if every == 1 else f"(the episode length {steps} / video_every {every}, rounded up)"
+        where = ("(the episode length)" if every == 1
+                 else f"(the episode length {steps} / video_every {every}, rounded up)")
         raise EvalArgumentError(f"video_frames={frames} is out of range; video_frames must be an integer in "
                                 f"[1, {most}] {where}")
     return frames, every
@@ -181,7 +182,8 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
             sheet = contact_sheet(list(clips[:, middle].numpy()), labels, columns=min(len(labels), SHEET_COLUMNS))
             frames_png = write_png(out / "videos" / "frames.png", sheet)
             info["videos"] = {k: str(v) for k, v in videos.items()}
-            info["video"] = {"frames": int(clips.shape[1]), "every": recorder.every, "size": list(clips.shape[2:4][::-1]),
+            info["video"] = {"frames": int(clips.shape[1]), "every": recorder.every,
+                             "size": list(clips.shape[2:4][::-1]),
                              "grid": args.video_grid, "fps": args.video_fps, "policy": "deterministic",
                              "episode": "first of each of the first worlds of every task block"}
     finally:
