@@ -263,6 +263,42 @@ def test_run_episodes_counts_only_the_first_episode_of_every_world() -> None:
     assert env.pop_episode_stats()["episodes"].tolist() == [10.0, 15.0, 10.0]
 
 
+def test_on_step_sees_which_worlds_ended_their_first_episode() -> None:
+    env = SyntheticMTEnv([2, 3, 2], max_episode_steps=5, random_initial_progress=False, seed=0,
+                         success_radius=10.0, terminate_on_success=True)  # every episode ends after one step
+    seen = []
+    run_episodes(env, lambda td, det: torch.zeros(td.batch_size[0], env.action_dim), episodes=1, deterministic=True,
+                 seed=0, on_step=lambda p, t, finished: seen.append((t, finished.clone())))
+    assert [t for t, _ in seen] == [0, 1, 2, 3, 4]
+    assert not seen[0][1].any() and all(f.all() for _, f in seen[1:])
+
+
+class _CountingRenderer:  # renders each world's frame as the number of render calls so far
+    def __init__(self, world_index: torch.Tensor) -> None:
+        self.world_index, self.calls = world_index, 0
+
+    def render(self) -> torch.Tensor:
+        self.calls += 1
+        return torch.full((*self.world_index.shape, 2, 2, 3), self.calls, dtype=torch.uint8)
+
+
+def test_video_of_a_world_stops_at_the_end_of_its_first_episode() -> None:
+    from mtbench.evaluation.video import VideoRecorder
+
+    recorder = VideoRecorder.__new__(VideoRecorder)  # the recorder's logic with a stand-in renderer
+    recorder.frames, recorder.grid, recorder.every, recorder.captured = 4, 1, 2, 0
+    recorder.renderer = _CountingRenderer(torch.tensor([[3], [0]]))  # two tasks, rendering worlds 3 and 0
+    recorder._buffer = torch.zeros(4, 2, 1, 2, 2, 3, dtype=torch.uint8)
+    finished = torch.zeros(5, dtype=torch.bool)
+    for t in range(8):
+        if t == 3:
+            finished[3] = True  # world 3's first episode ended before step 3 (and it was reset)
+        recorder.capture(t, finished)
+    videos = recorder.videos()  # [tasks, frames, H, W, 3], one render per recorded step 0, 2, 4, 6
+    assert videos[1, :, 0, 0, 0].tolist() == [1, 2, 3, 4]  # world 0 plays on
+    assert videos[0, :, 0, 0, 0].tolist() == [1, 2, 2, 2]  # world 3 keeps its last frame before the end
+
+
 def test_run_episodes_resets_a_stateful_policy_after_every_env_reset() -> None:
     env = SyntheticMTEnv([2, 3, 2], max_episode_steps=5, random_initial_progress=False, seed=0)
     calls: list[str] = []

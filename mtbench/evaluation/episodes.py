@@ -96,7 +96,7 @@ def run_episodes(
     episodes: int,
     deterministic: bool,
     seed: int,
-    on_step: Callable[[int, int], None] | None = None,
+    on_step: Callable[[int, int, torch.Tensor], None] | None = None,
 ) -> EvalResult:
     """Evaluate ``policy`` for at least ``episodes`` full episodes per task.
 
@@ -107,8 +107,9 @@ def run_episodes(
     MTBench's player also counts the first episode of every env). With ``episodes`` worlds per task one pass suffices; otherwise
     passes repeat until every task has ``episodes`` episodes (tasks with more worlds finish more). The env's
     reset sampler and torch's generator are seeded with ``seed`` first, so two evaluations with the same seed
-    see the same initial worlds. ``on_step(pass, t)`` is called before the action of step ``t`` (e.g. to render
-    the current state). A policy with a ``reset()`` method (a stateful one, e.g. an MT-PQN policy that holds its
+    see the same initial worlds. ``on_step(pass, t, finished)`` is called before the action of step ``t`` (e.g. to
+    render the current state); ``finished`` (bool ``[num_worlds]``, on the device) marks the worlds whose first
+    episode of the pass ended before step ``t``. A policy with a ``reset()`` method (a stateful one, e.g. an MT-PQN policy that holds its
     action for ``loss.horizon`` steps) is reset after every env reset. The statistics stay on the device until the
     end (one host copy).
     """
@@ -128,15 +129,15 @@ def run_episodes(
         if callable(reset_policy):  # a stateful policy (e.g. a PQN policy holding its action) starts afresh
             reset_policy()
         exclude = getattr(env, "exclude_episodes", None)
-        finished = None  # worlds whose first episode of this pass has ended (on the device)
+        # worlds whose first episode of this pass has ended (on the device)
+        finished = torch.zeros(td.batch_size[0], dtype=torch.bool, device=td.device)
         for t in range(steps):
             if on_step is not None:
-                on_step(p, t)
+                on_step(p, t, finished)
             td.set("action", policy(td, deterministic))
             out, td = env.step_and_maybe_reset(td)
+            finished = finished | out.get(("next", "done")).reshape(-1)
             if callable(exclude):
-                done = out.get(("next", "done")).reshape(-1)
-                finished = done if finished is None else finished | done
                 exclude(finished)
         stats = env.pop_episode_stats()
         for key in stats.keys():

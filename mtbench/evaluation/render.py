@@ -294,7 +294,8 @@ class EnvRenderer:
     left out).
 
     ``render()`` returns uint8 ``[num_tasks, worlds_per_task, H, W, 3]`` on the env's device; ``task_ids`` lists
-    the rendered tasks in that order.
+    the rendered tasks in that order; ``world_index`` (``[num_tasks, worlds_per_task]``) the rendered worlds' indices
+    in the env's batch, for an env of one simulator (None for task blocks).
     """
 
     def __init__(
@@ -316,7 +317,9 @@ class EnvRenderer:
             self.task_ids, worlds = task_worlds(env, self.worlds_per_task)
             self.renderers = [WorldRenderer(env.sim, worlds.numel(), width, height, camera, shadows=shadows,
                                             worlds=worlds.reshape(-1))]
+            self.world_index = worlds.to(self.renderers[0].device)
         else:
+            self.world_index = None
             sims = block_sims(env)
             fewest = min(s.nworld for s in sims)
             if not worlds_per_task <= fewest:

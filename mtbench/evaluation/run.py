@@ -147,10 +147,10 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
             shown = [t1]
             passes = info["passes"]
 
-            def on_step(p: int, t: int, record: bool = deterministic,
+            def on_step(p: int, t: int, finished: torch.Tensor, record: bool = deterministic,
                         label: str = "deterministic" if deterministic else "sampled") -> None:
                 if record and recorder is not None and p == 0:
-                    recorder.capture(t)
+                    recorder.capture(t, finished)
                 now = time.perf_counter()
                 if t > 0 and now - shown[0] >= PROGRESS_EVERY_S:  # a line every PROGRESS_EVERY_S on long passes
                     shown[0] = now

@@ -17,8 +17,10 @@ class VideoRecorder:
     """Frames of the first ``grid * grid`` worlds of every task (every task with worlds, ``task_ids``): every
     ``every``-th step of an episode (steps 0, every, 2 * every, ...), ``frames`` of them.
 
-    ``capture(t)`` renders the state at step ``t`` into frame ``t // every`` where it is one of those steps (on the
-    env's device, no host sync);
+    ``capture(t, finished)`` renders the state at step ``t`` into frame ``t // every`` where it is one of those
+    steps (on the env's device, no host sync); a world whose first episode has ended (``finished``, bool over the
+    env's worlds; envs of one simulator, e.g. Parkour) keeps its last frame of that episode, so that a video shows
+    the first episode only;
     ``videos()`` returns uint8 ``[num_tasks, frames, H * grid, W * grid, 3]`` on the CPU.
     """
 
@@ -37,11 +39,17 @@ class VideoRecorder:
                                    device=device)
         self.captured = 0
 
-    def capture(self, t: int) -> None:
+    def capture(self, t: int, finished: torch.Tensor | None = None) -> None:
         k, off = divmod(t, self.every)
-        if off == 0 and k < self.frames:
-            self._buffer[k] = self.renderer.render()
-            self.captured = max(self.captured, k + 1)
+        if off or k >= self.frames:
+            return
+        frame = self.renderer.render()
+        index = getattr(self.renderer, "world_index", None)
+        if finished is not None and index is not None and k > 0:
+            hold = finished.to(frame.device)[index]  # [num_tasks, worlds_per_task]
+            frame = torch.where(hold[..., None, None, None], self._buffer[k - 1], frame)
+        self._buffer[k] = frame
+        self.captured = max(self.captured, k + 1)
 
     def videos(self) -> torch.Tensor:
         frames = tile(self._buffer[: self.captured], self.grid)  # [T, K, H, W, 3]
