@@ -100,6 +100,7 @@ def main() -> None:
         fields.append((m.hfield_data[adr: adr + nrow * ncol].reshape(nrow, ncol) * m.hfield_size[k][2],
                        np.array(m.hfield_size[k])))
     policy = load_policy(state, env, device)
+    torch.manual_seed(args.seed)  # the sampled actions
     task = be.task_id.numpy()
     counts = np.bincount(task, minlength=be.num_tasks)
     calls: dict[str, list[int]] = defaultdict(list)
@@ -114,7 +115,7 @@ def main() -> None:
         if (t + 1) % args.every:
             continue
         samples += 1
-        xpos = wp.to_torch(sim.data.geom_xpos).numpy()
+        xpos = sim.geom_xpos.numpy()
         xmat = wp.to_torch(sim.data.geom_xmat).numpy().reshape(sim.nworld, m.ngeom, 3, 3)
         step_max: dict[str, int] = defaultdict(int)
         for w in range(sim.nworld):

@@ -26,9 +26,6 @@ from mtbench.envs.parkour import scene as parkour_scene
 from mtbench.evaluation.policy import load_policy, make_eval_env, read_checkpoint
 from mtbench.trainer.rollout import base_env
 
-MAX_ABS_QVEL = 1e4  # WarpSim.unhealthy's runaway threshold
-
-
 def parse_setting(text: str) -> tuple[float | None, int, int]:
     """``"0.01@30#12"`` -> (0.01, 30, 12); missing parts take the scene's defaults."""
     rest, _, ccd = text.partition("#")
@@ -60,15 +57,13 @@ def run(state: dict, setting: str, num_envs: int, steps: int, device: torch.devi
     hfield = torch.zeros((), device=device)
     per_task = torch.zeros(be.num_tasks, device=device)
     task = be.task_id.long()
-    check, env_step = sim.unhealthy, be._step
+    env_step = be._step
     in_step = [False]
 
-    def counted_unhealthy(max_abs_qvel: float = MAX_ABS_QVEL) -> torch.Tensor:
-        bad = check(max_abs_qvel)
+    def counted_unhealthy(*args, **kwargs) -> torch.Tensor:  # WarpSim.unhealthy, counting its causes
+        nonfinite, runaway, fatal = sim.unhealthy_causes(*args, **kwargs).values()
+        bad = nonfinite | runaway | fatal
         if in_step[0]:  # once per env step (the env's resets call it again for the worlds they reset)
-            nonfinite = ~torch.isfinite(sim.qpos).all(-1) | ~torch.isfinite(sim.qvel).all(-1)
-            runaway = sim.qvel.abs().amax(-1) > max_abs_qvel
-            fatal = (sim._overflow & sim.fatal_overflow) != 0
             causes.add_(torch.stack([nonfinite.sum(), runaway.sum(), fatal.sum()]).float())
             hfield.add_(((sim._overflow & int(mjw.OverflowType.HFIELD)) != 0).sum())
             per_task.index_add_(0, task, bad.float())
@@ -83,6 +78,7 @@ def run(state: dict, setting: str, num_envs: int, steps: int, device: torch.devi
 
     sim.unhealthy, be._step = counted_unhealthy, counted_step
     policy = load_policy(state, env, device)
+    torch.manual_seed(seed)  # the sampled actions
     td = env.reset()
     for _ in range(10):  # warm-up (graph capture) outside the timing
         td.set("action", policy(td, False))

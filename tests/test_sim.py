@@ -84,6 +84,10 @@ def test_unhealthy_flags_nan_and_runaway_worlds(reach_model: mujoco.MjModel) -> 
     sim.qvel[1, 3] = float("nan")
     sim.qvel[2, 8] = 1e6
     assert sim.unhealthy().tolist() == [False, True, True]
+    causes = sim.unhealthy_causes()
+    assert causes["nonfinite"].tolist() == [False, True, False]
+    assert causes["runaway"].tolist() == [False, False, True]  # (a NaN compares false: not a runaway)
+    assert not causes["overflow"].any()
     sim.reset(torch.tensor([False, True, True]))
     assert not sim.unhealthy().any()
 

@@ -44,7 +44,7 @@ class VideoRecorder:
         if off or k >= self.frames:
             return
         frame = self.renderer.render()
-        index = getattr(self.renderer, "world_index", None)
+        index = self.renderer.world_index
         if finished is not None and index is not None and k > 0:
             hold = finished.to(frame.device)[index]  # [num_tasks, worlds_per_task]
             frame = torch.where(hold[..., None, None, None], self._buffer[k - 1], frame)

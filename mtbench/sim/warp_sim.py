@@ -500,10 +500,15 @@ class WarpSim:
 
     def unhealthy(self, max_abs_qvel: float = 1e4) -> torch.Tensor:
         """Bool ``[nworld]``: non-finite state, runaway velocities, or contact/constraint buffer overflow."""
-        bad = ~torch.isfinite(self.qpos).all(-1) | ~torch.isfinite(self.qvel).all(-1)
-        bad |= self.qvel.abs().amax(-1) > max_abs_qvel
-        bad |= (self._overflow & self.fatal_overflow) != 0
-        return bad
+        nonfinite, runaway, overflow = self.unhealthy_causes(max_abs_qvel).values()
+        return nonfinite | runaway | overflow
+
+    def unhealthy_causes(self, max_abs_qvel: float = 1e4) -> dict[str, torch.Tensor]:
+        """The causes that make a world :meth:`unhealthy`, each bool ``[nworld]`` (a world may have several):
+        ``"nonfinite"`` (state), ``"runaway"`` (a velocity above ``max_abs_qvel``), ``"overflow"`` (a fatal one)."""
+        return {"nonfinite": ~torch.isfinite(self.qpos).all(-1) | ~torch.isfinite(self.qvel).all(-1),
+                "runaway": self.qvel.abs().amax(-1) > max_abs_qvel,
+                "overflow": (self._overflow & self.fatal_overflow) != 0}
 
     def overflowed(self, kinds: int, clear: bool = False, worlds: slice | None = None) -> torch.Tensor:
         """Bool ``[nworld]``: the world had an overflow of one of the ``mjw.OverflowType`` bits ``kinds`` since its
