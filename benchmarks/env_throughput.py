@@ -144,7 +144,8 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
             num_rows: int = 10, compile_stages: bool | str = False, phases: bool = False, group_models: bool = False,
             robot_joints: tuple[str, float | None, str] = (parkour_robot.DEFAULT_INERTIAL_MODEL, None,
                                                            parkour_robot.DEFAULT_INTEGRATOR),
-            robot_contact: float | None = parkour_robot.DEFAULT_CONTACT_TIMECONST) -> dict:
+            robot_contact: float | None = parkour_robot.DEFAULT_CONTACT_TIMECONST,
+            robot_pieces: int = parkour_robot.DEFAULT_COLLISION_PIECES) -> dict:
     parkour = is_parkour(env_name)
     if parkour:
         if policy == "scripted":
@@ -153,12 +154,14 @@ def measure(env_name: str, num_envs: int, device: str, steps: int, warmup: int, 
         overrides = {"torch_graphs": torch_graphs, "terrain_collision": terrain_collision,
                      "terrain_representation": terrain_representation, "num_rows": num_rows,
                      "robot_inertia": inertia, "robot_armature": armature, "robot_integrator": integrator,
-                     "robot_contact_timeconst": robot_contact}
+                     "robot_contact_timeconst": robot_contact, "robot_collision_pieces": robot_pieces}
         collision = f"{terrain_collision} on {terrain_representation}"
         if robot_joints != (parkour_robot.DEFAULT_INERTIAL_MODEL, None, parkour_robot.DEFAULT_INTEGRATOR):
             collision += f"; {inertia}, armature {parkour_robot.joint_armature(inertia, armature):g}, {integrator}"
         if robot_contact != parkour_robot.DEFAULT_CONTACT_TIMECONST:
             collision += f"; contacts {'MuJoCo soft 0.02' if robot_contact is None else f'{robot_contact:g}'} s"
+        if robot_pieces != parkour_robot.DEFAULT_COLLISION_PIECES:
+            collision += f"; {robot_pieces} pieces per box/long capsule"
     else:
         if policy in ("trot", "stand"):
             raise ValueError(f"--policy {policy} is for Parkour; Meta-World takes random or scripted")
@@ -255,6 +258,9 @@ def main() -> None:
                         default=parkour_robot.DEFAULT_CONTACT_TIMECONST,
                         help="Parkour: the robot's contact time constant in s, or null for MuJoCo's soft 0.02 "
                              f"(default {parkour_robot.DEFAULT_CONTACT_TIMECONST:g})")
+    parser.add_argument("--robot-collision-pieces", type=int, default=parkour_robot.DEFAULT_COLLISION_PIECES,
+                        help="Parkour: each box and long capsule of the robot's collision set as N pieces "
+                             f"(default {parkour_robot.DEFAULT_COLLISION_PIECES}; docs/parkour.md)")
     parser.add_argument("--compile-stages", action=argparse.BooleanOptionalAction, default=None,
                         help="Meta-World: torch.compile the env's torch stages (default: the env config's setting)")
     parser.add_argument("--group-models", action=argparse.BooleanOptionalAction, default=None,
@@ -284,7 +290,7 @@ def main() -> None:
                     terrain_collision=args.terrain_collision, terrain_representation=args.terrain_representation,
                     num_rows=args.num_rows, compile_stages=args.compile_stages, phases=args.phases,
                     group_models=args.group_models, robot_joints=(args.robot_inertia, args.robot_armature, args.robot_integrator),
-                    robot_contact=args.robot_contact_timeconst)
+                    robot_contact=args.robot_contact_timeconst, robot_pieces=args.robot_collision_pieces)
         print(f"| {r['env']} | {r['num_envs']} | {r['policy']} | {r['collision']} | {r['mode']} | {r['substeps']} | "
               f"{r['env_steps_per_s']:,.0f} | {r['physics_steps_per_s']:,.0f} | {r['ms_per_step']:.2f} | "
               f"{r['contacts_per_world']:.2f} | {r['success']:.1%} | {r['build_s']:.1f} | {r['first_step_s']:.1f} | "

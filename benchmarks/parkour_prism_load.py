@@ -6,8 +6,11 @@ the geom's bounding box and runs GJK (and EPA where they overlap) on every prism
 point (`ccd_hfield_kernel`). This script repeats that selection in numpy on the states of an evaluation rollout
 (sampled actions, as in training) and reports, per geom kind, the calls per pair: mean, 99th percentile and maximum,
 and per sampled step the largest count of each kind (the longest thread of that kernel launch). It runs on the CPU.
+``--split N`` counts, on the same states, what the threads would test with the env's ``robot_collision_pieces=N``
+(each box and long capsule as N pieces along its longest axis: the same solid in N pairs), without changing the
+physics of the rollout.
 
-    python benchmarks/parkour_prism_load.py CHECKPOINT --num-envs 84 --steps 600 --every 20
+    python benchmarks/parkour_prism_load.py CHECKPOINT --num-envs 84 --steps 600 --every 20 [--split 4]
 
 Results: docs/benchmarks.md, section 7 ("Which geoms make the heightfield work").
 """
@@ -54,6 +57,26 @@ def half_extents(m: mujoco.MjModel, g: int, rot: np.ndarray) -> np.ndarray:
     raise ValueError(f"geom {g}: type {kind} is not a Go1 collision shape")
 
 
+def pieces(m: mujoco.MjModel, g: int, centre: np.ndarray, rot: np.ndarray, split: int) -> list[np.ndarray]:
+    """Half extents and centres of the geom cut into ``split`` equal pieces along its longest axis as the env's
+    ``robot_collision_pieces`` cuts it (``robot.is_split``: boxes along their longest side, capsules longer than
+    their radius along their segment; the rest whole), as ``[(centre, half_extents), ...]`` in the heightfield frame."""
+    size = np.array(m.geom_size[g], dtype=float)
+    kind = int(m.geom_type[g])
+    if split == 1 or not robot.is_split(kind, size):
+        return [(centre, half_extents(m, g, rot))]
+    axis = int(np.argmax(size)) if kind == mujoco.mjtGeom.mjGEOM_BOX else 2
+    length = size[axis] if kind == mujoco.mjtGeom.mjGEOM_BOX else size[1]
+    piece = size.copy()
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        piece[axis] = length / split
+        ext = np.abs(rot) @ piece
+    else:
+        ext = np.abs(rot[:, 2]) * (length / split) + size[0]
+    offsets = (2 * np.arange(split) - (split - 1)) * length / split
+    return [(centre + rot[:, axis] * o, ext) for o in offsets]
+
+
 def prism_calls(heights: np.ndarray, size: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
     """Prisms the kernel tests for a geom with bounds ``lo``/``hi`` (heightfield frame): triangles of the cells under
     the bounds whose top reaches ``lo[2]``. ``heights``: ``[nrow, ncol]`` metres; ``size``: MuJoCo's hfield size."""
@@ -78,8 +101,9 @@ def main() -> None:
     p.add_argument("--steps", type=int, default=600, help="env steps of the rollout")
     p.add_argument("--every", type=int, default=20, help="count every k-th step")
     p.add_argument("--seed", type=int, default=7)
+    p.add_argument("--split", type=int, default=1, help="count the geoms as robot_collision_pieces=N would cut them (1: whole)")
     args = p.parse_args()
-    for name in ("num_envs", "steps", "every"):
+    for name in ("num_envs", "steps", "every", "split"):
         if getattr(args, name) < 1:
             raise SystemExit(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
     state = read_checkpoint(args.checkpoint)
@@ -122,16 +146,16 @@ def main() -> None:
             heights, size = fields[int(dataid[w % dataid.shape[0], hf])]
             origin = xpos[w, hf]
             for g in robot_geoms:
-                centre = xpos[w, g] - origin
-                ext = half_extents(m, g, xmat[w, g])
-                n = prism_calls(heights, size, centre - ext, centre + ext)
-                calls[kinds[g]].append(n)
-                step_max[kinds[g]] = max(step_max[kinds[g]], n)
-                per_task[task[w]] += n
+                for centre, ext in pieces(m, g, xpos[w, g] - origin, xmat[w, g], args.split):
+                    n = prism_calls(heights, size, centre - ext, centre + ext)
+                    calls[kinds[g]].append(n)
+                    step_max[kinds[g]] = max(step_max[kinds[g]], n)
+                    per_task[task[w]] += n
         for kind, n in step_max.items():
             longest[kind].append(n)
     print(f"{sim.nworld} worlds over {be.num_tasks} task slots, {args.steps} env steps, counted every "
-          f"{args.every} ({samples} samples), sampled actions, CPU, {time.perf_counter() - t0:.0f} s; "
+          f"{args.every} ({samples} samples), sampled actions, pieces per box/capsule {args.split}, CPU, "
+          f"{time.perf_counter() - t0:.0f} s; "
           f"checkpoint {args.checkpoint}")
     total = sum(sum(v) for v in calls.values())
     print("| geom kind | pairs per world | GJK/EPA prisms per pair: mean | p99 | max | share of all prisms "
@@ -139,7 +163,7 @@ def main() -> None:
     print("|---|---:|---:|---:|---:|---:|---:|")
     for kind in sorted(calls, key=lambda k: -sum(calls[k])):
         v = np.array(calls[kind])
-        pairs = sum(1 for g in robot_geoms if kinds[g] == kind)
+        pairs = sum(len(pieces(m, g, np.zeros(3), np.eye(3), args.split)) for g in robot_geoms if kinds[g] == kind)
         print(f"| {kind} | {pairs} | {v.mean():.2f} | {np.percentile(v, 99):.0f} | {v.max()} | "
               f"{100 * v.sum() / max(total, 1):.1f}% | {np.mean(longest[kind]):.1f} |")
     order = np.argsort(-per_task)

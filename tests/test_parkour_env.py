@@ -561,3 +561,24 @@ def test_contact_time_constant_reaches_the_simulated_model() -> None:
         robot_geoms = torch.as_tensor(env.scene.mjm.geom_contype != 0)
         assert env.scene.robot_contact_timeconst == (None if kwargs else 0.01)
         assert torch.allclose(solref[robot_geoms], torch.tensor([expected, 1.0]).expand(int(robot_geoms.sum()), 2))
+
+
+def test_collision_pieces_reach_the_simulated_model() -> None:
+    """``robot_collision_pieces`` (an env override) cuts the robot's boxes and long capsules in the model that MuJoCo
+    Warp simulates (48 robot/terrain pairs at 4 pieces instead of 18, contact buffers sized for them); standing robots
+    stand alike (feet are never cut); a bad value gets one error naming the parameter."""
+    heights = {}
+    for pieces in (1, 4):
+        env = _env(n=2, robot_collision_pieces=pieces)
+        assert env.scene.robot_collision_pieces == pieces
+        assert env.scene.contact_pairs == (18 if pieces == 1 else 48)
+        names = [env.scene.mjm.geom(g).name for g in range(env.scene.mjm.ngeom) if env.scene.mjm.geom_contype[g]]
+        assert ("trunk_box" in names) == (pieces == 1) and ("trunk_box_3" in names) == (pieces == 4)
+        td = env.reset()
+        for _ in range(10):
+            td = env.step(td.set("action", torch.zeros(2, 12)))["next"]
+        assert env.pop_episode_stats()["unhealthy"].sum() == 0
+        heights[pieces] = env.sim.qpos[:, 2].clone()
+    assert torch.allclose(heights[4], heights[1], atol=1e-4), heights
+    with pytest.raises(ValueError, match=r"robot_collision_pieces must be an integer in \[1, 8\]"):
+        _env(robot_collision_pieces=0)

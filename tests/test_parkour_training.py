@@ -78,7 +78,7 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     # the grid and the collision set kept, the fine-tuning's curriculum dropped
     assert dict(stage.env.overrides) == {"num_rows": 2, "terrain_collision": "all", "robot_inertia": "menagerie",
                                          "robot_armature": None, "robot_integrator": "euler",
-                                         "robot_contact_timeconst": 0.01}
+                                         "robot_contact_timeconst": 0.01, "robot_collision_pieces": 1}
     assert stage.grad.name == "none"  # gradient methods start from the plain architecture's weights
     assert stage.max_iterations == 1 and stage.total_frames is None and stage.seed == 0
     key = stage_key(stage)
@@ -98,7 +98,8 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
                                   "env.overrides.robot_inertia=urdf"))
     assert urdf.env.overrides.robot_inertia == "urdf" and stage_key(urdf) != key
     without = flat_stage_config(cfg)
-    for name in ("robot_inertia", "robot_armature", "robot_integrator", "robot_contact_timeconst"):
+    for name in ("robot_inertia", "robot_armature", "robot_integrator", "robot_contact_timeconst",
+                 "robot_collision_pieces"):
         del without.env.overrides[name]
     assert stage_key(without) == key
     # the armature and the integrator too; the default armature named explicitly is the default model
@@ -106,10 +107,12 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     for other in (["env.overrides.robot_armature=0.0"], ["env.overrides.robot_integrator=implicitfast"],
                   ["env.overrides.robot_armature=0.0", "env.overrides.robot_integrator=implicitfast"],
                   ["env.overrides.robot_inertia=urdf", "env.overrides.robot_armature=0.0",
-                   "env.overrides.robot_integrator=implicitfast"], ["env.overrides.robot_contact_timeconst=null"]):
+                   "env.overrides.robot_integrator=implicitfast"], ["env.overrides.robot_contact_timeconst=null"],
+                  ["env.overrides.robot_collision_pieces=4"]):
         keys.add(stage_key(flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other))))
-    assert len(keys) == 6
-    for named in ("env.overrides.robot_armature=0.01", "env.overrides.robot_contact_timeconst=0.01"):
+    assert len(keys) == 7
+    for named in ("env.overrides.robot_armature=0.01", "env.overrides.robot_contact_timeconst=0.01",
+                  "env.overrides.robot_collision_pieces=1"):
         assert stage_key(flat_stage_config(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", named))) == key
     # and so does a new robot model (a physics change)
     monkeypatch.setattr("mtbench.envs.parkour.robot.MODEL_VERSION", "another-model")

@@ -81,11 +81,11 @@ def flat_stage_config(cfg: DictConfig) -> DictConfig:
 def stage_key(stage: DictConfig) -> str:
     """SHA-256 (hex) of what shapes the pre-trained weights: ``arch``, ``loss``, the flat env, iterations, seed and
     the robot model's version (``robot.model_version``: a physics change invalidates older stages). The env overrides
-    ``robot_inertia``, ``robot_armature``, ``robot_integrator`` and ``robot_contact_timeconst`` enter through the
-    model version, not as overrides: a model keeps its key whether its values are named or left to the env's
-    defaults, and a ``"urdf"`` stage never shares a ``"menagerie"`` one."""
-    from ..envs.parkour.robot import (DEFAULT_CONTACT_TIMECONST, DEFAULT_INERTIAL_MODEL, DEFAULT_INTEGRATOR,
-                                      model_version)
+    ``robot_inertia``, ``robot_armature``, ``robot_integrator``, ``robot_contact_timeconst`` and
+    ``robot_collision_pieces`` enter through the model version, not as overrides: a model keeps its key whether its
+    values are named or left to the env's defaults, and a ``"urdf"`` stage never shares a ``"menagerie"`` one."""
+    from ..envs.parkour.robot import (DEFAULT_COLLISION_PIECES, DEFAULT_CONTACT_TIMECONST, DEFAULT_INERTIAL_MODEL,
+                                      DEFAULT_INTEGRATOR, model_version)
 
     material = {key: _plain(stage.get(key)) for key in ("arch", "loss", "env", "max_iterations", "seed")}
     overrides = (material.get("env") or {}).get("overrides") or {}
@@ -94,7 +94,8 @@ def stage_key(stage: DictConfig) -> str:
     armature = overrides.pop("robot_armature", None)
     integrator = overrides.pop("robot_integrator", DEFAULT_INTEGRATOR)
     contact = overrides.pop("robot_contact_timeconst", DEFAULT_CONTACT_TIMECONST)
-    material["robot_model"] = model_version(inertia, armature, integrator, contact)
+    pieces = overrides.pop("robot_collision_pieces", DEFAULT_COLLISION_PIECES)
+    material["robot_model"] = model_version(inertia, armature, integrator, contact, pieces)
     return hashlib.sha256(json.dumps(material, sort_keys=True).encode()).hexdigest()
 
 

@@ -97,6 +97,9 @@ class ParkourEnv(EnvBase):
         robot_contact_timeconst: the time constant in s of the robot's terrain contacts (default 0.01, the stiffest
             MuJoCo allows at this timestep, feet sink ~1 mm; None: MuJoCo's own 0.02, soft, 1-2 cm at impacts, where the
             policies do not learn to jump, docs/parkour.md; the original's PhysX contacts are rigid).
+        robot_collision_pieces: each box and long capsule of the robot's collision set as this many equal pieces
+            along its longest axis (default 1: whole; up to 8): the same solids, in more and shorter heightfield
+            collision threads on the GPU (docs/parkour.md, "Collision pieces").
         terrain_representation: ``"tiles"`` (one heightfield per tile, selected per world; physics in tile
             frames) or ``"grid"`` (one heightfield for the whole grid; MuJoCo Warp's heightfield contacts go wrong
             more than ~20 m from its centre: small grids only); see ``scene.py``.
@@ -135,6 +138,7 @@ class ParkourEnv(EnvBase):
         robot_armature: float | None = None,
         robot_integrator: str = robot.DEFAULT_INTEGRATOR,
         robot_contact_timeconst: float | None = robot.DEFAULT_CONTACT_TIMECONST,
+        robot_collision_pieces: int = robot.DEFAULT_COLLISION_PIECES,
         terrain_representation: str = "tiles",
         tile_margin: float = 1.0,
         domain_randomization: bool = True,
@@ -192,7 +196,7 @@ class ParkourEnv(EnvBase):
 
         # physics: one model, one WarpSim, per-world domain randomization
         self.scene = build_scene(terrain, terrain_collision, terrain_representation, tile_margin, robot_inertia,
-                                 robot_armature, robot_integrator, robot_contact_timeconst)
+                                 robot_armature, robot_integrator, robot_contact_timeconst, robot_collision_pieces)
         mjm = self.scene.mjm
         pairs = self.scene.contact_pairs
         nconmax = 4 * pairs if nconmax is None else nconmax  # MuJoCo Warp makes <= 4 contacts per heightfield pair

@@ -125,6 +125,13 @@ HIP_RADIUS, HIP_HALF_LENGTH, HIP_OFFSET = 0.046, 0.02, 0.045  # URDF hip cylinde
 THIGH_RADIUS, THIGH_FROMTO = 0.015, (0.0, 0.0, -0.015, 0.0, 0.0, -0.198)  # URDF box 0.213 x 0.0245 x 0.034
 CALF_RADIUS, CALF_FROMTO = 0.008, (0.0, 0.0, -0.008, 0.0, 0.0, -0.19)  # URDF box 0.213 x 0.016 x 0.016
 FOOT_RADIUS, FOOT_POS = 0.02, (0.0, 0.0, -0.213)
+# Collision pieces: MuJoCo Warp's heightfield collision runs one thread per robot-geom/heightfield pair, and that
+# thread runs GJK/EPA on every prism under the geom's bounding box that reaches its lowest point, so a kernel launch
+# lasts as long as its largest geom (the trunk box: ~60-100 prisms in a step of a trained policy's worlds;
+# docs/benchmarks.md section 7). Cutting each box along its longest side, and each capsule whose segment is longer
+# than its radius along that segment, into N equal pieces keeps the same solid in N pairs of ~1/N the prisms each.
+COLLISION_PIECES_RANGE = (1, 8)
+DEFAULT_COLLISION_PIECES = 1
 
 
 # Inertial models: Menagerie's (default) or the original URDF's (module docstring).
@@ -204,12 +211,15 @@ def joint_armature(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None
 
 def model_version(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None = None,
                   integrator: str = DEFAULT_INTEGRATOR,
-                  contact_timeconst: float | None = DEFAULT_CONTACT_TIMECONST) -> str:
+                  contact_timeconst: float | None = DEFAULT_CONTACT_TIMECONST,
+                  collision_pieces: int = DEFAULT_COLLISION_PIECES) -> str:
     """The robot model's version for the flat pre-training key: ``MODEL_VERSION`` for Menagerie's inertials and
     armature, Euler and MuJoCo's own contact time constant (``contact_timeconst=None``; the key of every stage before
     the stiffer default), ``MODEL_VERSION`` plus the inertial model, the armature, a non-default integrator and the
-    contact time constant otherwise (the default model: ``MODEL_VERSION + "+contact-0.01"``)."""
+    contact time constant otherwise (the default model: ``MODEL_VERSION + "+contact-0.01"``), and the collision
+    pieces when more than one (``+pieces-N``)."""
     value = joint_armature(inertia, armature)
+    pieces = check_collision_pieces(collision_pieces)
     _check_integrator(integrator)
     contact = check_contact_timeconst(contact_timeconst)
     parts = [MODEL_VERSION]
@@ -218,6 +228,8 @@ def model_version(inertia: str = DEFAULT_INERTIAL_MODEL, armature: float | None 
         parts.append(joints if integrator == DEFAULT_INTEGRATOR else f"{joints}-{integrator}")
     if contact is not None:
         parts.append(f"contact-{contact:g}")
+    if pieces != 1:
+        parts.append(f"pieces-{pieces}")
     return "+".join(parts)
 
 
@@ -231,6 +243,46 @@ def check_contact_timeconst(value: float | None) -> float | None:
         raise ValueError(f"robot_contact_timeconst must be a number of seconds in [{low:g}, {high:g}] (or null: "
                          f"MuJoCo's {MUJOCO_CONTACT_TIMECONST:g}); got {value!r}")
     return float(value)
+
+
+def check_collision_pieces(value: int) -> int:
+    """``value`` as an int, or a ValueError naming ``robot_collision_pieces`` and its range
+    (``COLLISION_PIECES_RANGE``)."""
+    low, high = COLLISION_PIECES_RANGE
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= int(value) <= high:
+        raise ValueError(f"robot_collision_pieces must be an integer in [{low}, {high}] (1: each collision shape "
+                         f"whole); got {value!r}")
+    return int(value)
+
+
+def is_split(geom_type: int, size: "np.ndarray | list[float]") -> bool:
+    """Whether ``robot_collision_pieces`` cuts a collision geom of this MuJoCo type and ``size``: every box (along
+    its longest side) and every capsule whose half-segment is longer than its radius (the thighs and calves; not the
+    short, thick hip capsules, whose bounding box a cut hardly shrinks); never a sphere."""
+    if geom_type == mujoco.mjtGeom.mjGEOM_BOX:
+        return True
+    return geom_type == mujoco.mjtGeom.mjGEOM_CAPSULE and float(size[1]) > float(size[0])
+
+
+def box_pieces(pos: "list[float] | tuple[float, ...]", half_size: "list[float] | tuple[float, ...]",
+               pieces: int) -> list[tuple[list[float], list[float]]]:
+    """A box (centre ``pos``, ``half_size`` in its body frame, axis-aligned there) as ``pieces`` equal boxes along its
+    longest side: ``[(centre, half_size), ...]``, which tile the box exactly."""
+    axis = int(np.argmax(half_size))
+    out = []
+    for k in range(pieces):
+        centre, size = list(map(float, pos)), list(map(float, half_size))
+        size[axis] = half_size[axis] / pieces
+        centre[axis] = pos[axis] - half_size[axis] + (2 * k + 1) * size[axis]
+        out.append((centre, size))
+    return out
+
+
+def segment_pieces(fromto: "list[float] | tuple[float, ...]", pieces: int) -> list[list[float]]:
+    """A capsule's segment ``fromto`` (6 numbers) as ``pieces`` consecutive equal segments: capsules of the same
+    radius on them make exactly the same solid."""
+    a, b = np.asarray(fromto[:3], dtype=float), np.asarray(fromto[3:], dtype=float)
+    return [list(a + (b - a) * k / pieces) + list(a + (b - a) * (k + 1) / pieces) for k in range(pieces)]
 
 
 def _check_inertia(inertia: str) -> None:
@@ -253,7 +305,8 @@ def _collision_class(body_name: str) -> str:
 
 def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = DEFAULT_INERTIAL_MODEL,
              armature: float | None = None, integrator: str = DEFAULT_INTEGRATOR,
-             contact_timeconst: float | None = DEFAULT_CONTACT_TIMECONST) -> mujoco.MjSpec:
+             contact_timeconst: float | None = DEFAULT_CONTACT_TIMECONST,
+             collision_pieces: int = DEFAULT_COLLISION_PIECES) -> mujoco.MjSpec:
     """Menagerie Go1 with PD actuators, URDF-like collision shapes, foot bodies and the original's joint dynamics.
 
     Args:
@@ -267,6 +320,9 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = 
         contact_timeconst: the time constant (s) of the robot's terrain contacts (its collision geoms' solref,
             damping ratio 1; ``DEFAULT_CONTACT_TIMECONST`` by default, ``None``: MuJoCo's own 0.02); smaller is stiffer
             (``CONTACT_TIMECONST_RANGE``).
+        collision_pieces: each box and long capsule of the collision set as this many equal pieces along its
+            longest axis (``is_split``; named ``<name>_<k>``): the same solids, in more and shorter heightfield
+            collision threads on the GPU (``COLLISION_PIECES_RANGE``; 1: each shape whole, named ``<name>``).
     """
     if terrain_collision not in TERRAIN_COLLISIONS:
         raise ValueError(f"unknown terrain_collision {terrain_collision!r}; valid choices: "
@@ -274,6 +330,7 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = 
     armature = joint_armature(inertia, armature)
     _check_integrator(integrator)
     contact = check_contact_timeconst(contact_timeconst)
+    pieces = check_collision_pieces(collision_pieces)
     solref = {} if contact is None else {"solref": [contact, 1.0]}
     enabled = TERRAIN_COLLISIONS[: TERRAIN_COLLISIONS.index(terrain_collision) + 1]
     spec = mujoco.MjSpec.from_file(str(menagerie_dir("unitree_go1") / "go1.xml"))
@@ -293,10 +350,24 @@ def go1_spec(terrain_collision: str = DEFAULT_TERRAIN_COLLISION, inertia: str = 
             joint.solref_limit = list(JOINT_LIMIT_SOLREF)
             joint.solimp_limit = list(JOINT_LIMIT_SOLIMP)
 
-    def add_collision(body: mujoco.MjsBody, name: str, **kwargs) -> None:
+    def add_geom(body: mujoco.MjsBody, name: str, **kwargs) -> None:
         on = _collision_class(body.name) in enabled
         body.add_geom(name=name, group=3, rgba=[0.8, 0.3, 0.3, 0.4], contype=ROBOT_BIT if on else 0, conaffinity=0,
                       condim=3, priority=1, friction=[1.0, 0.005, 0.0001], margin=0.0, mass=0.0, **solref, **kwargs)
+
+    def add_collision(body: mujoco.MjsBody, name: str, **kwargs) -> None:
+        kind, size = kwargs["type"], kwargs["size"]
+        if kind == mujoco.mjtGeom.mjGEOM_CAPSULE and "fromto" in kwargs:
+            a, b = np.asarray(kwargs["fromto"][:3]), np.asarray(kwargs["fromto"][3:])
+            size = [size[0], 0.5 * float(np.linalg.norm(b - a))]
+        if pieces == 1 or not is_split(kind, size):
+            add_geom(body, name, **kwargs)
+        elif kind == mujoco.mjtGeom.mjGEOM_BOX:
+            for k, (pos, half) in enumerate(box_pieces(kwargs.get("pos", [0.0, 0.0, 0.0]), size, pieces)):
+                add_geom(body, f"{name}_{k}", **{**kwargs, "pos": pos, "size": half})
+        else:  # a capsule given by its segment (the thighs and calves)
+            for k, fromto in enumerate(segment_pieces(kwargs["fromto"], pieces)):
+                add_geom(body, f"{name}_{k}", **{**kwargs, "fromto": fromto})
 
     add_collision(spec.body(BASE_BODY), "trunk_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(TRUNK_HALF_SIZE))
     add_collision(spec.body(BASE_BODY), "camera_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(CAMERA_BOX_HALF_SIZE),

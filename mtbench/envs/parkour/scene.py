@@ -56,6 +56,7 @@ class ParkourScene:
         robot_armature: the joints' rotor armature (kg m^2).
         robot_integrator: the physics integrator (``robot.INTEGRATORS``).
         robot_contact_timeconst: the time constant (s) of the robot's terrain contacts (None: MuJoCo's own 0.02).
+        robot_collision_pieces: pieces per box and long capsule of the robot's collision set (``robot.go1_spec``).
         hfield_geom: id of the terrain heightfield geom.
         tile_offset: float32 ``[num_rows, num_cols, 3]`` world position of each tile's physics frame origin (zeros for
             ``"grid"``: physics coordinates are world coordinates).
@@ -74,6 +75,7 @@ class ParkourScene:
     robot_armature: float = robot.JOINT_ARMATURE
     robot_integrator: str = robot.DEFAULT_INTEGRATOR
     robot_contact_timeconst: float | None = robot.DEFAULT_CONTACT_TIMECONST
+    robot_collision_pieces: int = robot.DEFAULT_COLLISION_PIECES
 
     @property
     def contact_pairs(self) -> int:
@@ -89,7 +91,8 @@ def _tile_grid_shape(terrain) -> tuple[int, int]:
 def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISION, representation: str = "tiles",
                 tile_margin: float = 1.0, robot_inertia: str = robot.DEFAULT_INERTIAL_MODEL,
                 robot_armature: float | None = None, robot_integrator: str = robot.DEFAULT_INTEGRATOR,
-                robot_contact_timeconst: float | None = robot.DEFAULT_CONTACT_TIMECONST) -> ParkourScene:
+                robot_contact_timeconst: float | None = robot.DEFAULT_CONTACT_TIMECONST,
+                robot_collision_pieces: int = robot.DEFAULT_COLLISION_PIECES) -> ParkourScene:
     """Compile the Go1 and ``terrain`` (a ``terrain.Terrain``) into one MuJoCo model.
 
     Args:
@@ -106,6 +109,8 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
         robot_contact_timeconst: the time constant (s) of the robot's terrain contacts
             (``robot.DEFAULT_CONTACT_TIMECONST`` by default, None: MuJoCo's own 0.02;
             ``robot.CONTACT_TIMECONST_RANGE``).
+        robot_collision_pieces: each box and long capsule of the robot's collision set as this many pieces (the same
+            solids in shorter GPU heightfield-collision threads; ``robot.COLLISION_PIECES_RANGE``).
     """
     if representation not in TERRAIN_REPRESENTATIONS:
         raise ValueError(f"unknown terrain representation {representation!r}; valid choices: "
@@ -139,7 +144,8 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
         tile_offset = offsets
         tile_hfield = np.arange(nrows * ncols, dtype=np.int32).reshape(nrows, ncols)
 
-    spec = robot.go1_spec(terrain_collision, robot_inertia, robot_armature, robot_integrator, robot_contact_timeconst)
+    spec = robot.go1_spec(terrain_collision, robot_inertia, robot_armature, robot_integrator, robot_contact_timeconst,
+                          robot_collision_pieces)
     spec.option.iterations = SOLVER_ITERATIONS
     spec.option.ls_iterations = LS_ITERATIONS
     spec.option.ccd_iterations = CCD_ITERATIONS
@@ -169,4 +175,5 @@ def build_scene(terrain, terrain_collision: str = robot.DEFAULT_TERRAIN_COLLISIO
                         robot_inertia=robot_inertia,
                         robot_armature=robot.joint_armature(robot_inertia, robot_armature),
                         robot_integrator=robot_integrator,
-                        robot_contact_timeconst=robot_contact_timeconst)  # checked by go1_spec
+                        robot_contact_timeconst=robot_contact_timeconst,  # checked by go1_spec
+                        robot_collision_pieces=int(robot_collision_pieces))
