@@ -292,6 +292,17 @@ def test_resuming_mid_fine_tuning_continues_exactly(stage: tuple[Path, Path], tm
                               "env.overrides.robot_contact_timeconst=null"))
     assert soft.iteration == 2 and soft.env.scene.robot_contact_timeconst is None
     soft.env.close()
+    # the collision pieces too (the checkpoint's per-geom model fields fit only its own); a checkpoint from before
+    # the key existed had whole shapes (the default) and resumes as it is
+    with pytest.raises(ValueError, match=r"env\.overrides\.robot_collision_pieces: checkpoint=1 current=2"):
+        build_trainer(_cfg(tmp_path / "cut", *plain, "max_iterations=3", f"resume={ckpt}",
+                           "env.overrides.robot_collision_pieces=2"))
+    del state["config"]["env"]["overrides"]["robot_collision_pieces"]
+    state["config"]["env"]["overrides"]["robot_contact_timeconst"] = 0.01
+    older = save_checkpoint(tmp_path / "older.pt", state)
+    whole_shapes = build_trainer(_cfg(tmp_path / "cut", *plain, "max_iterations=3", f"resume={older}"))
+    assert whole_shapes.iteration == 2 and whole_shapes.env.scene.robot_collision_pieces == 1
+    whole_shapes.env.close()
 
 
 # ---------------------------------------------------------------------------------------------- action clipping

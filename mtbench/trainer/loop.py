@@ -82,12 +82,15 @@ class TrainingLoop:
     """
 
     #: config keys whose mismatch between a checkpoint and the current config makes a resume meaningless (the Parkour
-    #: robot's contact stiffness: a resume must not change the physics under a run)
+    #: robot's contact stiffness: a resume must not change the physics under a run; its collision pieces: the saved
+    #: per-geom model fields would not fit)
     resume_keys: tuple[str, ...] = ("env.name", "env.num_envs", "loss.name", "loss.horizon", "arch.name", "grad.name",
-                                    "loss.clip_actions", "env.overrides.robot_contact_timeconst")
+                                    "loss.clip_actions", "env.overrides.robot_contact_timeconst",
+                                    "env.overrides.robot_collision_pieces")
     #: the value of a resume key in a config that lacks it (a checkpoint written before the key existed: MuJoCo's
-    #: soft contacts before 2026-11-28)
-    resume_defaults: dict[str, Any] = {"loss.clip_actions": False, "env.overrides.robot_contact_timeconst": None}
+    #: soft contacts before 2026-11-28, whole collision shapes before 2026-11-29)
+    resume_defaults: dict[str, Any] = {"loss.clip_actions": False, "env.overrides.robot_contact_timeconst": None,
+                                       "env.overrides.robot_collision_pieces": 1}
 
     def __init__(
         self,
