@@ -17,7 +17,7 @@ from hydra import compose, initialize_config_dir
 from cpu_runs import assert_same_metrics, compose_config
 from mtbench.envs.parkour.observation import SLICES
 from mtbench.trainer import build_trainer
-from mtbench.trainer.checkpoint import load_checkpoint, save_checkpoint
+from mtbench.trainer.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 from mtbench.trainer.hooks import Checkpointer
 from mtbench.trainer.metrics import EpisodeStatsWindow
 from mtbench.trainer.pretraining import (
@@ -303,6 +303,11 @@ def test_resuming_mid_fine_tuning_continues_exactly(stage: tuple[Path, Path], tm
     whole_shapes = build_trainer(_cfg(tmp_path / "cut", *plain, "max_iterations=3", f"resume={older}"))
     assert whole_shapes.iteration == 2 and whole_shapes.env.scene.robot_collision_pieces == 1
     whole_shapes.env.close()
+    # a networks-only checkpoint (docs/results/checkpoints) cannot be resumed; the error says to use pretrained=
+    slim = save_checkpoint(tmp_path / "slim.pt", {k: state[k] for k in ("version", "config", "env_info", "counters",
+                                                                       "loss", "obs_norm")})
+    with pytest.raises(CheckpointError, match=r"holds no optimizer, env, rollout state.*pretrained=.*slim\.pt"):
+        build_trainer(_cfg(tmp_path / "cut", *plain, "max_iterations=3", f"resume={slim}"))
 
 
 # ---------------------------------------------------------------------------------------------- action clipping

@@ -299,7 +299,13 @@ class TrainingLoop:
         """Called once the optimizer state is loaded (its state lives in new tensors)."""
 
     def load_state_dict(self, state: dict[str, Any], source: str | os.PathLike[str] = "checkpoint") -> None:
-        """Restore :meth:`state_dict`; refuses a checkpoint of another configuration (``resume_keys``) or env."""
+        """Restore :meth:`state_dict`; refuses a checkpoint of another configuration (``resume_keys``) or env, and one
+        that holds the networks only (e.g. docs/results/checkpoints: no optimizer, env or rollout state)."""
+        missing = [key for key in ("counters", "loss", "optimizer", "env", "rollout") if key not in state]
+        if missing:
+            raise CheckpointError(source, f"holds no {', '.join(missing)} state (a networks-only checkpoint?), so a run "
+                                          f"cannot continue from it exactly; start one from its weights with "
+                                          f"pretrained={source}")
         diffs = []
         if self.config is not None and state.get("config") is not None:
             saved = OmegaConf.create(state["config"])
