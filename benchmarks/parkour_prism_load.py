@@ -57,24 +57,24 @@ def half_extents(m: mujoco.MjModel, g: int, rot: np.ndarray) -> np.ndarray:
     raise ValueError(f"geom {g}: type {kind} is not a Go1 collision shape")
 
 
-def pieces(m: mujoco.MjModel, g: int, centre: np.ndarray, rot: np.ndarray, split: int) -> list[np.ndarray]:
-    """Half extents and centres of the geom cut into ``split`` equal pieces along its longest axis as the env's
-    ``robot_collision_pieces`` cuts it (``robot.is_split``: boxes along their longest side, capsules longer than
-    their radius along their segment; the rest whole), as ``[(centre, half_extents), ...]`` in the heightfield frame."""
+def pieces(m: mujoco.MjModel, g: int, centre: np.ndarray, rot: np.ndarray,
+           split: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The geom as the env's ``robot_collision_pieces=split`` cuts it (``robot.is_split``, ``robot.box_pieces``,
+    ``robot.segment_pieces``: boxes along their longest side, capsules longer than their radius along their segment,
+    the rest whole), as ``[(centre, half_extents), ...]`` of the pieces' bounding boxes in the heightfield frame."""
     size = np.array(m.geom_size[g], dtype=float)
     kind = int(m.geom_type[g])
     if split == 1 or not robot.is_split(kind, size):
         return [(centre, half_extents(m, g, rot))]
-    axis = int(np.argmax(size)) if kind == mujoco.mjtGeom.mjGEOM_BOX else 2
-    length = size[axis] if kind == mujoco.mjtGeom.mjGEOM_BOX else size[1]
-    piece = size.copy()
-    if kind == mujoco.mjtGeom.mjGEOM_BOX:
-        piece[axis] = length / split
-        ext = np.abs(rot) @ piece
-    else:
-        ext = np.abs(rot[:, 2]) * (length / split) + size[0]
-    offsets = (2 * np.arange(split) - (split - 1)) * length / split
-    return [(centre + rot[:, axis] * o, ext) for o in offsets]
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:  # pieces in the geom's frame, then rotated into the heightfield's
+        return [(centre + rot @ np.array(local), np.abs(rot) @ np.array(half))
+                for local, half in robot.box_pieces(np.zeros(3), size, split)]
+    segment = (0.0, 0.0, -size[1], 0.0, 0.0, size[1])  # a capsule's segment along its z
+    out = []
+    for part in robot.segment_pieces(segment, split):
+        a, b = np.array(part[:3]), np.array(part[3:])
+        out.append((centre + rot @ (0.5 * (a + b)), np.abs(rot[:, 2]) * 0.5 * np.linalg.norm(b - a) + size[0]))
+    return out
 
 
 def prism_calls(heights: np.ndarray, size: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> int:
