@@ -99,7 +99,7 @@ class ParkourEnv(EnvBase):
             policies do not learn to jump, docs/parkour.md; the original's PhysX contacts are rigid).
         robot_collision_pieces: each box and long capsule of the robot's collision set as this many equal pieces
             along its longest axis (default 1: whole; up to 8): the same solids, in more and shorter heightfield
-            collision threads on the GPU (docs/parkour.md, "Collision pieces").
+            collision threads on the GPU; measured 4-10% slower there (docs/parkour.md, "Collision pieces").
         terrain_representation: ``"tiles"`` (one heightfield per tile, selected per world; physics in tile
             frames) or ``"grid"`` (one heightfield for the whole grid; MuJoCo Warp's heightfield contacts go wrong
             more than ~20 m from its centre: small grids only); see ``scene.py``.
