@@ -249,6 +249,38 @@ def test_fine_tuning_starts_from_the_stage_weights_only(stage: tuple[Path, Path]
     fresh.env.close()
 
 
+def test_pretrained_log_std_resets_the_exploration_noise_only(stage: tuple[Path, Path]) -> None:
+    tmp, final = stage
+    cfg = _cfg(tmp, "env=parkour_hard_cl", "arch=mlp_parkour", f"pretrained={final}", "pretrained_log_std=-1.5")
+    trainer = build_trainer(cfg)
+    saved = load_checkpoint(final)["loss"]
+    current = trainer.loss.state_dict()
+    networks = [k for k in current if k.split(".", 1)[0].endswith("_network_params")]
+    std_keys = [k for k in networks if k.endswith(".log_std")]
+    assert std_keys == ["actor_network_params.module.0.module.log_std"]
+    assert torch.equal(current[std_keys[0]], torch.full((12,), -1.5))
+    assert not torch.equal(saved[std_keys[0]], current[std_keys[0]])
+    for key in networks:
+        if key not in std_keys:
+            torch.testing.assert_close(current[key], saved[key], rtol=0, atol=0)
+    # the policy samples with that noise: scale = exp(-1.5) for every joint
+    td = trainer.env.reset()
+    dist = trainer.policy.get_dist(td)
+    torch.testing.assert_close(dist.base_dist.scale if hasattr(dist, "base_dist") else dist.scale,
+                               torch.full((42, 12), math.exp(-1.5)))
+    trainer.env.close()
+
+
+@pytest.mark.parametrize("value", [-5.5, 2.5, "big", float("nan")])
+def test_pretrained_log_std_out_of_range_is_one_clear_error(tmp_path: Path, value: object) -> None:
+    from mtbench.trainer.config import check_config
+
+    cfg = _cfg(tmp_path, "env=parkour_hard_cl")
+    cfg.pretrained_log_std = value
+    with pytest.raises(ValueError, match=r"pretrained_log_std must be a number in \[-5.0, 2.0\] or null"):
+        check_config(cfg)
+
+
 def test_pretrained_of_another_architecture_is_refused(stage: tuple[Path, Path], tmp_path: Path) -> None:
     _, final = stage
     trainer = build_trainer(_cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour"))

@@ -779,3 +779,14 @@ def test_config_errors(tmp_path: Path, override: str, message: str) -> None:
 def test_env_bins_must_match_the_loss(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="5 bins, loss.bins_per_dim=3"):
         build_trainer(_cfg(tmp_path), env=_discrete_synthetic(5, action_dim=2))
+
+
+def test_pretrained_log_std_with_a_q_policy_is_one_clear_error(tmp_path: Path) -> None:
+    from mtbench.trainer.pretraining import load_pretrained
+
+    trainer = build_trainer(_cfg(tmp_path), env=_env())
+    path = trainer.save(tmp_path / "q.pt")
+    load_pretrained(trainer, path)  # the Q-network's own weights load
+    with pytest.raises(ValueError, match=r"^pretrained_log_std=0.0 needs a policy with a state-independent log-std "
+                                         r"\(loss=ppo\|grpo\); this run's actor has none \(loss=pqn\)"):
+        load_pretrained(trainer, path, log_std=0.0)

@@ -298,7 +298,7 @@ def build_trainer(
     if resumed is not None:
         trainer.load_state_dict(resumed, source=str(cfg.resume))
     elif cfg.get("pretrained"):
-        load_pretrained(trainer, str(cfg.pretrained))
+        load_pretrained(trainer, str(cfg.pretrained), log_std=cfg.get("pretrained_log_std"))
     return trainer
 
 

@@ -59,6 +59,10 @@ def _int(value: Any, name: str, minimum: int, hint: str = "", *, optional: bool 
     return int(value)
 
 
+#: valid ``pretrained_log_std`` values (sigma from 0.0067 to 7.4)
+PRETRAINED_LOG_STD_RANGE = (-5.0, 2.0)
+
+
 def _choice(value: Any, name: str, choices: tuple[str, ...]) -> str:
     if value not in choices:
         raise ValueError(f"unknown {name} {value!r}; valid choices: {list(choices)}")
@@ -119,6 +123,8 @@ def check_config(cfg: DictConfig) -> None:
         what = "is a directory" if Path(str(pretrained)).is_dir() else "does not exist"
         raise ValueError(f"pretrained={pretrained} {what}; give a checkpoint file written by mtbench (e.g. "
                          "runs/pretrained/<arch>-<key>/checkpoints/final.pt) or null")
+    _number(cfg.get("pretrained_log_std"), "pretrained_log_std", PRETRAINED_LOG_STD_RANGE[0],
+            PRETRAINED_LOG_STD_RANGE[1], optional=True)
     resume = cfg.get("resume")
     if resume is not None and Path(str(resume)).is_dir():
         raise ValueError(f"resume={resume} is a directory; give a checkpoint file written by mtbench (e.g. "

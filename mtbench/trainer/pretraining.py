@@ -162,14 +162,22 @@ def pretrain_flat(cfg: DictConfig, train_stage: Callable[[DictConfig], "Trainer"
     return final
 
 
+def _loss_name(trainer: "Trainer") -> str:
+    return str(trainer.config.loss.name) if trainer.config is not None else type(trainer.loss).__name__
+
+
 def _network_keys(state: dict[str, Any]) -> list[str]:
     return [k for k in state if k.split(".", 1)[0].endswith("_network_params")]
 
 
-def load_pretrained(trainer: "Trainer", path: str | os.PathLike[str]) -> list[str]:
+def load_pretrained(trainer: "Trainer", path: str | os.PathLike[str], log_std: float | None = None) -> list[str]:
     """Copy the networks of the mtbench checkpoint ``path`` into ``trainer`` (every ``*_network_params`` entry of
     its loss; the observation statistics when both normalise observations). Returns the copied keys; raises one
-    ``ValueError`` naming ``pretrained`` when the file is not a usable checkpoint or its networks do not fit."""
+    ``ValueError`` naming ``pretrained`` when the file is not a usable checkpoint or its networks do not fit.
+
+    ``log_std`` (config ``pretrained_log_std``): afterwards set every state-independent log-std of the policy to this
+    value (0: sigma = 1, the exploration noise of a fresh policy) instead of keeping the checkpoint's; a
+    ``ValueError`` naming ``pretrained_log_std`` when the policy has none (SAC's and PQN's actors)."""
     from .trainer import observation_norm
 
     try:
@@ -192,6 +200,14 @@ def load_pretrained(trainer: "Trainer", path: str | os.PathLike[str]) -> list[st
     with torch.no_grad():
         for key in keys:
             current[key].copy_(saved[key].to(current[key].device))
+        if log_std is not None:
+            std_keys = [k for k in keys if k.startswith("actor_network_params.") and k.endswith(".log_std")]
+            if not std_keys:
+                raise ValueError(f"pretrained_log_std={log_std} needs a policy with a state-independent log-std "
+                                 f"(loss=ppo|grpo); this run's actor has none (loss={_loss_name(trainer)}); set "
+                                 "pretrained_log_std=null")
+            for key in std_keys:
+                current[key].fill_(float(log_std))
     norm = observation_norm(trainer.env)
     if norm is not None and state.get("obs_norm") is not None:
         norm.load_state_dict(state["obs_norm"])

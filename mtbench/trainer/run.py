@@ -3,6 +3,7 @@ per-task success table."""
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Any, Sequence
@@ -119,7 +120,9 @@ def train_stage(cfg: DictConfig, env: Any = None) -> TrainingLoop:
     if trainer.iteration or trainer.rollout.steps_done:
         print(f"resumed from {cfg.resume} at iteration {trainer.iteration} ({trainer.frames:,} frames)", flush=True)
     elif cfg.get("pretrained"):
-        print(f"starting from the weights of {cfg.pretrained}", flush=True)
+        reset = cfg.get("pretrained_log_std")
+        note = "" if reset is None else f" (policy log-std set to {reset:g}: sigma = {math.exp(reset):.3g})"
+        print(f"starting from the weights of {cfg.pretrained}{note}", flush=True)
     try:
         trainer.train()
     finally:
