@@ -337,6 +337,11 @@ def test_run_episodes_resets_a_stateful_policy_after_every_env_reset() -> None:
          "video_grid=3 is out of range; video_grid must be an integer in [1, 2]"),
         (["checkpoint={ckpt}", "episodes"], "argument 'episodes' is not key=value"),
         (["checkpoint={ckpt}", "episodes=1", "episodes=2"], "parameter 'episodes' is given twice"),
+        (["checkpoint={ckpt}", "env.num_envs=8"], "unknown parameter 'env.num_envs'; the env is changed with "
+                                                   "env.name=... (tasks or terrains) and env.overrides.<key>=..."),
+        (["checkpoint={ckpt}", "env.overrides.seed=1", "env.overrides.seed=2"],
+         "parameter 'env.overrides.seed' is given twice"),
+        (["checkpoint={ckpt}", "env.name="], "env.name= is empty; give a value"),
     ],
 )
 def test_bad_arguments_name_the_parameter_and_valid_values(tmp_path: Path, argv: list[str], message: str) -> None:
@@ -425,3 +430,22 @@ def test_eval_env_keeps_the_contacts_a_parkour_run_trained_on() -> None:
                              "overrides": {"robot_contact_timeconst": 0.01}}, 2)
     assert named.overrides.robot_contact_timeconst == 0.01
     assert "robot_contact_timeconst" not in eval_env_config({"name": "mt10_rand", "num_envs": 8}, 10).overrides
+
+
+def test_env_overrides_are_parsed_and_merged_into_the_run_env(tmp_path: Path) -> None:
+    from omegaconf import OmegaConf
+
+    from mtbench.evaluation.run import with_env_overrides
+
+    ckpt = tmp_path / "final.pt"
+    ckpt.write_bytes(b"")
+    args = parse_args([f"checkpoint={ckpt}", "env.name=[box_jump_even,flat]", "+env.overrides.curriculum=true",
+                       "env.overrides.max_init_level=0", "episodes=2"])
+    assert args.env_overrides == ("env.name=[box_jump_even,flat]", "env.overrides.curriculum=true",
+                                  "env.overrides.max_init_level=0") and args.episodes == 2
+    run_env = OmegaConf.create({"name": "parkour_hard_cl", "num_envs": 4096,
+                                "overrides": {"num_rows": 10, "curriculum": False}})
+    env = with_env_overrides(run_env, args.env_overrides)
+    assert OmegaConf.to_container(env) == {"name": ["box_jump_even", "flat"], "num_envs": 4096,
+                                           "overrides": {"num_rows": 10, "curriculum": True, "max_init_level": 0}}
+    assert parse_args([f"checkpoint={ckpt}"]).env_overrides == ()

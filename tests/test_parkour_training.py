@@ -510,3 +510,11 @@ def test_eval_command_on_a_parkour_moore_checkpoint(tmp_path: Path) -> None:
     with pytest.raises(EvalArgumentError, match=r"video_grid=2 needs 4 worlds per task, the smallest task block has 1"):
         evaluate(parse_args([f"checkpoint={ckpt}", "episodes=1", "video=true", "video_grid=2",
                              f"out={tmp_path / 'eval3'}"]))
+    # other terrains and every world on row 0 (the curriculum's start rows limited to 0): two terrains, two worlds each
+    rows0 = evaluate(parse_args([f"checkpoint={ckpt}", "episodes=2", "deterministic=true", f"out={tmp_path / 'eval4'}",
+                                 "env.name=[box_jump_even,flat]", "env.overrides.curriculum=true",
+                                 "env.overrides.max_init_level=0"]))
+    (result,) = rows0.results
+    assert rows0.info["env"] == ["box_jump_even", "flat"] and rows0.info["num_envs"] == 4
+    assert {t: n for t, n in zip(result.task_names, result.episodes) if n} == {"box_jump_even": 2, "flat": 2}
+    assert "- env_overrides: `['env.name=[box_jump_even,flat]'" in rows0.markdown.read_text()

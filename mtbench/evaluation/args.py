@@ -40,6 +40,9 @@ class EvalArgs:
         video_size: ``(width, height)``; ``None`` = 320x240 on CUDA, 160x120 on the CPU.
         video_fps: frame rate of the written videos.
         video_grid: 1 (first world of each task) or 2 (2x2 grid of its first four worlds).
+        env_overrides: ``env.name=...`` / ``env.overrides.<key>=...`` items (Hydra-style values: lists, booleans,
+            numbers) merged into the run's env config, e.g. other tasks or terrains, or Parkour worlds all on row 0
+            (``env.overrides.curriculum=true env.overrides.max_init_level=0``); empty: the run's own env.
     """
 
     checkpoint: Path
@@ -55,13 +58,15 @@ class EvalArgs:
     video_size: tuple[int, int] | None = None
     video_fps: int = 30
     video_grid: int = 1
+    env_overrides: tuple[str, ...] = ()
 
 
-KEYS = tuple(f.name for f in dataclasses.fields(EvalArgs))
+ENV_KEY = re.compile(r"^env\.(name|overrides\.[A-Za-z_][A-Za-z0-9_]*)$")
+KEYS = tuple(f.name for f in dataclasses.fields(EvalArgs) if f.name != "env_overrides")
 USAGE = (
     "usage: python examples/eval.py checkpoint=PATH [episodes=N] [deterministic=true|false] [video=true|false] "
     "[device=auto|cpu|cuda|cuda:I] [num_envs=N] [seed=S] [out=DIR] [video_frames=N] [video_every=K] [video_size=WxH] "
-    "[video_fps=N] [video_grid=1|2]"
+    "[video_fps=N] [video_grid=1|2] [env.name=NAME|[T1,T2,...]] [env.overrides.KEY=VALUE ...]"
 )
 
 
@@ -135,11 +140,22 @@ def parse_args(argv: Sequence[str]) -> EvalArgs:
     """``["checkpoint=PATH", "episodes=5", ...]`` -> :class:`EvalArgs`; raises :class:`EvalArgumentError` naming
     the parameter and its valid choices or range."""
     values: dict[str, Any] = {}
+    env_overrides: dict[str, str] = {}
     for arg in argv:
         if "=" not in arg:
             raise EvalArgumentError(f"argument {arg!r} is not key=value; valid keys: {', '.join(KEYS)}\n{USAGE}")
         key, text = arg.split("=", 1)
         key = key.strip().lstrip("+")
+        if key.startswith("env."):
+            if not ENV_KEY.match(key):
+                raise EvalArgumentError(f"unknown parameter {key!r}; the env is changed with env.name=... (tasks or "
+                                        f"terrains) and env.overrides.<key>=... (make_env arguments)")
+            if key in env_overrides:
+                raise EvalArgumentError(f"parameter {key!r} is given twice")
+            if not text.strip():
+                raise EvalArgumentError(f"{key}= is empty; give a value")
+            env_overrides[key] = text
+            continue
         if key not in KEYS:
             raise EvalArgumentError(f"unknown parameter {key!r}; valid keys: {', '.join(KEYS)}")
         if key in values:
@@ -170,7 +186,7 @@ def parse_args(argv: Sequence[str]) -> EvalArgs:
             values[key] = _int(key, text, low=1, high=2)
     if "checkpoint" not in values:
         raise EvalArgumentError(f"missing parameter 'checkpoint' (a checkpoint file written by training)\n{USAGE}")
-    return EvalArgs(**values)
+    return EvalArgs(**values, env_overrides=tuple(f"{k}={v}" for k, v in env_overrides.items()))
 
 
 __all__ = ["BOOL_WORDS", "DEVICE_CHOICES", "EvalArgs", "EvalArgumentError", "KEYS", "USAGE", "parse_args"]

@@ -99,9 +99,9 @@ def write_reports(out: Path, results: Sequence[EvalResult], info: dict[str, Any]
     out.mkdir(parents=True, exist_ok=True)
     md = out / "eval.md"
     lines = ["# Evaluation", ""]
-    for key in ("checkpoint", "env", "arch", "loss", "iteration", "frames", "device", "num_envs", "seed",
-                "episodes_requested"):
-        if key in info:
+    for key in ("checkpoint", "env", "env_overrides", "arch", "loss", "iteration", "frames", "device", "num_envs",
+                "seed", "episodes_requested"):
+        if key in info and (key != "env_overrides" or info[key]):
             lines.append(f"- {key}: `{info[key]}`")
     lines += ["", report_tables(results), ""]
     if info.get("videos"):

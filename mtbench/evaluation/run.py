@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import torch
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 
 from ..trainer.metrics import END_PREFIX
 from .args import EvalArgs, EvalArgumentError, parse_args
@@ -64,6 +64,16 @@ def video_schedule(steps: int, frames: int | None = None, every: int | None = No
     return frames, every
 
 
+def with_env_overrides(env_cfg: DictConfig, overrides: Sequence[str]) -> DictConfig:
+    """The run's ``env`` config with ``env.name=...`` / ``env.overrides.<key>=...`` items merged in (Hydra-style
+    values: ``[a,b]`` lists, booleans, numbers, ``null``)."""
+    try:
+        change = OmegaConf.from_dotlist([item[len("env."):] for item in overrides])
+    except Exception as err:  # omegaconf's grammar errors
+        raise EvalArgumentError(f"cannot read the env overrides {list(overrides)}: {err}") from None
+    return OmegaConf.merge(env_cfg, change)
+
+
 def _device(name: str) -> torch.device:
     if name == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
@@ -86,10 +96,17 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
     if cfg.get("torch_threads"):
         torch.set_num_threads(int(cfg.torch_threads))
     num_tasks = checkpoint_num_tasks(state)
+    if args.env_overrides:
+        cfg.env = with_env_overrides(cfg.env, args.env_overrides)
+        if "env.name" in {o.split("=", 1)[0] for o in args.env_overrides}:  # the tasks of the new env
+            name = cfg.env.name
+            num_tasks = len(name) if OmegaConf.is_list(name) else None
     num_envs = args.num_envs
     if num_envs is None:
         if num_tasks is None:
-            raise EvalArgumentError("num_envs must be given: the checkpoint does not record its number of tasks")
+            why = ("the number of tasks of env.name={} is not known before the env is built".format(cfg.env.name)
+                   if args.env_overrides else "the checkpoint does not record its number of tasks")
+            raise EvalArgumentError(f"num_envs must be given: {why}")
         num_envs = args.episodes * num_tasks
     elif num_tasks is not None and num_envs < num_tasks:
         raise EvalArgumentError(f"num_envs={num_envs} is smaller than the number of tasks ({num_tasks}); num_envs "
@@ -136,6 +153,7 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
             "passes": passes_needed(env, args.episodes),
             "metric": metric,
             "task_names": list(env.task_names),
+            "env_overrides": list(args.env_overrides),
         }
         _log(f"eval | {info['env']} | {len(counts)} tasks x {counts} worlds | {info['passes']} pass(es) of {steps} "
              f"steps | device {device} | seed {seed} | env ready in {time.perf_counter() - t0:.1f}s")
