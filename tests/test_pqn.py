@@ -790,3 +790,7 @@ def test_pretrained_log_std_with_a_q_policy_is_one_clear_error(tmp_path: Path) -
     with pytest.raises(ValueError, match=r"^pretrained_log_std=0.0 needs a policy with a state-independent log-std "
                                          r"\(loss=ppo\|grpo\); this run's actor has none \(loss=pqn\)"):
         load_pretrained(trainer, path, log_std=0.0)
+    from mtbench.trainer.config import check_config
+
+    with pytest.raises(ValueError, match=r"^pretrained_log_std applies to loss=ppo\|grpo .*loss=pqn has none"):
+        check_config(_cfg(tmp_path, "+pretrained_log_std=0.0"))

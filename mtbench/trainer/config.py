@@ -125,6 +125,9 @@ def check_config(cfg: DictConfig) -> None:
                          "runs/pretrained/<arch>-<key>/checkpoints/final.pt) or null")
     _number(cfg.get("pretrained_log_std"), "pretrained_log_std", PRETRAINED_LOG_STD_RANGE[0],
             PRETRAINED_LOG_STD_RANGE[1], optional=True)
+    if cfg.get("pretrained_log_std") is not None and lc.get("name") in ("sac", "pqn"):
+        raise ValueError(f"pretrained_log_std applies to loss=ppo|grpo (a Gaussian policy with a state-independent "
+                         f"log-std); loss={lc.get('name')} has none: set pretrained_log_std=null")
     resume = cfg.get("resume")
     if resume is not None and Path(str(resume)).is_dir():
         raise ValueError(f"resume={resume} is a directory; give a checkpoint file written by mtbench (e.g. "

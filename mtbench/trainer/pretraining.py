@@ -197,15 +197,15 @@ def load_pretrained(trainer: "Trainer", path: str | os.PathLike[str], log_std: f
             f"another shape, e.g. {example!r}); checkpoint arch={theirs}, this run arch={ours}. Pre-train with the "
             "same arch preset and an env with the same observation and action sizes"
         )
+    std_keys = [k for k in keys if k.startswith("actor_network_params.") and k.endswith(".log_std")]
+    if log_std is not None and not std_keys:
+        raise ValueError(f"pretrained_log_std={log_std} needs a policy with a state-independent log-std "
+                         f"(loss=ppo|grpo); this run's actor has none (loss={_loss_name(trainer)}); set "
+                         "pretrained_log_std=null")
     with torch.no_grad():
         for key in keys:
             current[key].copy_(saved[key].to(current[key].device))
         if log_std is not None:
-            std_keys = [k for k in keys if k.startswith("actor_network_params.") and k.endswith(".log_std")]
-            if not std_keys:
-                raise ValueError(f"pretrained_log_std={log_std} needs a policy with a state-independent log-std "
-                                 f"(loss=ppo|grpo); this run's actor has none (loss={_loss_name(trainer)}); set "
-                                 "pretrained_log_std=null")
             for key in std_keys:
                 current[key].fill_(float(log_std))
     norm = observation_norm(trainer.env)

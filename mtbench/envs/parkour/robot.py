@@ -129,8 +129,8 @@ FOOT_RADIUS, FOOT_POS = 0.02, (0.0, 0.0, -0.213)
 # thread runs GJK/EPA on every prism under the geom's bounding box that reaches its lowest point (the trunk box:
 # ~60-100 prisms in a step of a trained policy's worlds; docs/benchmarks.md section 7). Cutting each box along its
 # longest side, and each capsule whose segment is longer than its radius along that segment, into N equal pieces keeps
-# the same solid in N pairs of ~1/N the prisms each. Measured on an H200 it does not pay (the heightfield kernels -11%,
-# the whole rollout +10% at N = 4: the per-pair stages grow), so the default is whole shapes.
+# the same solid in N pairs of ~1/N the prisms each. Measured on an H200 it does not pay (at N = 4 the heightfield
+# kernels -11%, the rollout's frames/s -10%: the per-pair stages grow), so the default is whole shapes.
 COLLISION_PIECES_RANGE = (1, 8)
 DEFAULT_COLLISION_PIECES = 1
 
