@@ -82,10 +82,13 @@ def test_stage_config_and_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -
     assert stage.grad.name == "none"  # gradient methods start from the plain architecture's weights
     assert stage.max_iterations == 1 and stage.total_frames is None and stage.seed == 0
     key = stage_key(stage)
-    # the gradient method, the run's setting, seed and length do not change the stage
-    for other in (["grad=none", "seed=1"], ["env=parkour_easy", "grad=famo"], ["max_iterations=100"]):
+    # the gradient method, the run's setting, seed and length do not change the stage, nor the sigma that the
+    # fine-tuning sets after loading it (the stage itself trains from a fresh policy)
+    for other in (["grad=none", "seed=1"], ["env=parkour_easy", "grad=famo"], ["max_iterations=100"],
+                  ["pretrained_log_std=0"]):
         same = _cfg(tmp_path, "env=parkour_hard_cl", "arch=moore_parkour", *other)
         assert stage_key(flat_stage_config(same)) == key, other
+        assert flat_stage_config(same).pretrained_log_std is None, other
     # what shapes the weights does
     for other in (["arch=mlp_parkour"], ["arch.kwargs.hidden_dim=128"], ["loss.lr=1e-3"], ["pretrain.iterations=2"],
                   ["loss.clip_actions=false"],

@@ -74,6 +74,7 @@ def flat_stage_config(cfg: DictConfig) -> DictConfig:
         stage.total_frames = None
         stage.seed = int(pre.get("seed", 0))
         stage.pretrained = None
+        stage.pretrained_log_std = None  # the fine-tuning's reset of the stage's sigma, not the stage's
         stage.resume = None
     return stage
 
