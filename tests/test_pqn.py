@@ -337,8 +337,8 @@ def test_epsilon_schedule_known_answers() -> None:
     assert linear_epsilon(10**9, 1.0, 0.005, 1000) == 0.005
     # paper sizes: 50,000 iterations x 8192 envs x 16 steps, 0.5% -> annealed over the first 250 iterations
     explore = EGreedyModule(Categorical(3, shape=(8192, 4)), eps_init=1.0, eps_end=0.005)
-    fake = SimpleNamespace(policy=nn.Sequential(explore), frames=0, num_envs=8192, total_iterations=50_000,
-                           frames_per_batch=8192 * 16, rollout=SimpleNamespace(steps_done=0))
+    fake = SimpleNamespace(policy=nn.Sequential(explore), frames=0, num_envs=8192, total_envs=8192,
+                           total_iterations=50_000, frames_per_batch=8192 * 16, rollout=SimpleNamespace(steps_done=0))
     hook = EpsilonSchedule(1.0, 0.005, 0.005)
     assert hook.anneal_frames(fake) == 250 * 8192 * 16
     hook.on_iteration_start(fake)
@@ -363,7 +363,7 @@ def test_epsilon_schedule_on_mtbench_clock_known_answers() -> None:
     iterations * num_envs * horizon``: at the paper's sizes the rate reaches its end after 4,000 iterations, not
     250 (the frames clock)."""
     explore = EGreedyModule(Categorical(3, shape=(8192, 4)), eps_init=1.0, eps_end=0.005)
-    fake = SimpleNamespace(policy=nn.Sequential(explore), frames=0, iteration=0, num_envs=8192,
+    fake = SimpleNamespace(policy=nn.Sequential(explore), frames=0, iteration=0, num_envs=8192, total_envs=8192,
                            total_iterations=50_000, frames_per_batch=8192 * 16, rollout=SimpleNamespace(steps_done=0))
     hook = EpsilonSchedule(1.0, 0.005, 0.005, clock="mtbench")
     hook.on_iteration_start(fake)  # epoch 1, step 0: t = 8192

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import torch
 
+from ..utils.distributed import all_reduce_sum_
+
 
 def _flat_task_id(task_id: torch.Tensor, numel: int) -> torch.Tensor:
     tid = task_id.reshape(-1)
@@ -29,11 +31,13 @@ def per_task_standardize(
     flat = x.reshape(-1)
     tid = _flat_task_id(task_id, flat.numel())
     ones = torch.ones_like(flat)
-    count = torch.zeros(num_tasks, dtype=flat.dtype, device=flat.device).index_add_(0, tid, ones)
-    total = torch.zeros(num_tasks, dtype=flat.dtype, device=flat.device).index_add_(0, tid, flat)
+    # statistics over every rank's samples (torchrun; single process: this process's)
+    count = all_reduce_sum_(torch.zeros(num_tasks, dtype=flat.dtype, device=flat.device).index_add_(0, tid, ones))
+    total = all_reduce_sum_(torch.zeros(num_tasks, dtype=flat.dtype, device=flat.device).index_add_(0, tid, flat))
     mean = total / count.clamp_min(1.0)
     centered = flat - mean[tid]
-    sq = torch.zeros(num_tasks, dtype=flat.dtype, device=flat.device).index_add_(0, tid, centered * centered)
+    sq = all_reduce_sum_(
+        torch.zeros(num_tasks, dtype=flat.dtype, device=flat.device).index_add_(0, tid, centered * centered))
     denom = (count - 1.0).clamp_min(1.0) if unbiased else count.clamp_min(1.0)
     std = (sq / denom).sqrt()
     return (centered / (std[tid] + eps)).reshape(x.shape)

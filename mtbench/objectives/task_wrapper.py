@@ -28,6 +28,7 @@ from tensordict.utils import NestedKey
 from torch import nn
 from torchrl.objectives import LossModule
 
+from ..utils import distributed
 from .gradients import is_loss_key
 from .param_groups import PARAM_GROUPS, available_groups, resolve_param_group, terms_reaching
 from .per_task import check_task_ids, flat_task_ids, per_sample, task_counts, task_means, weighted_mean
@@ -67,8 +68,17 @@ class TaskLosses:
         self.weights = weights
         self.num_tasks = num_tasks
         self.counts = task_counts(task_id, num_tasks, None if weights is None else weights.to(self.samples.dtype))
+        share = self.counts
+        if distributed.is_active():  # torchrun: per-task means over every rank's samples
+            self.counts = distributed.all_reduce_sum_(self.counts.detach().clone())
+            share = self.counts / distributed.world_size()  # this rank's sums over it: the ranks' mean is the union's
         self.present = self.counts > 0
-        self.per_task, _ = task_means(self.samples, task_id, num_tasks, weights, self.counts)  # [K, T]
+        self.per_task, _ = task_means(self.samples, task_id, num_tasks, weights, share)  # [K, T]
+        if distributed.is_active():
+            # the value of the union's per-task means, the gradient of this rank's share (averaged over the ranks)
+            union = self.per_task.detach().clone()
+            distributed.all_reduce_mean_([union])
+            self.per_task = self.per_task + (union - self.per_task).detach()
         self.means = weighted_mean(self.samples, weights)  # [T]
         self.metrics = out.exclude(*self.names)
 
@@ -429,6 +439,7 @@ class TaskGradientWrapper(LossModule):
         if grads is None:
             self.batched_backward = False
             grads = per_task_gradients(task_losses, params, batched=False)
+        distributed.all_reduce_mean_([grads])  # torchrun: every task's gradient over all ranks' samples
         return grads
 
     def _diagnostics(self, losses: TaskLosses, present: torch.Tensor) -> torch.Tensor | None:

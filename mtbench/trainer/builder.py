@@ -14,6 +14,7 @@ from ..modules.q_network import DecomposedQNetwork
 from ..objectives import MTGRPOLoss, MTPPOLoss, MTPQNLoss, make_gradient_method
 from ..objectives.ppo import MTClipPPOBase
 from ..transforms import PerTaskObservationNorm
+from ..utils import distributed
 from .actor_critic import GaussianPolicyHead, make_actor, make_critic
 from .checkpoint import CheckpointError, load_checkpoint, seed_everything
 from .config import (
@@ -30,6 +31,7 @@ from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, Prog
 from .loop import TrainingLoop
 from .pqn import build_pqn_loss, build_radam, discrete_action_env, make_pqn_policy, pqn_hold_keys, pqn_hooks
 from .pretraining import load_pretrained
+from .ranks import check_distributed, rank_device, rank_env_config, rank_file, rank_seed, share_run_paths
 from .rollout import base_env
 from .sac_builder import build_sac_trainer
 from .trainer import Trainer
@@ -37,9 +39,11 @@ from .trainer import Trainer
 
 def build_env(cfg: DictConfig, device: torch.device) -> EnvBase:
     """``mtbench.envs.make_env(env.name, num_envs=env.num_envs, device=..., seed=seed, **env.overrides)``; warns
-    first when the run is far too big for the CPU."""
-    warn_if_cpu_run_too_big(device, int(cfg.env.num_envs), int(cfg.loss.horizon))
-    return make_env_from_cfg(cfg.env, device, int(cfg.seed))
+    first when the run is far too big for the CPU. Under torchrun: this rank's share of the worlds, from its own
+    seed (:mod:`~mtbench.trainer.ranks`)."""
+    env_cfg = rank_env_config(cfg.env)
+    warn_if_cpu_run_too_big(device, int(env_cfg["num_envs"]), int(cfg.loss.horizon))
+    return make_env_from_cfg(env_cfg, device, rank_seed(int(cfg.seed)))
 
 
 ACTION_CLIP = 1.0  # rl_games clip_actions: the sampled action is clamped to [-ACTION_CLIP, ACTION_CLIP]
@@ -152,8 +156,8 @@ def resolve_graph_update(value: Any, device: torch.device, graph_safe: bool) -> 
     PQN; SAC once its replay buffer is full): each compared with its eager update on an H200 by
     ``benchmarks/update_check.py [--loss pqn|sac]``; ``true`` = on (an error where that is not possible);
     ``false`` = off."""
-    if value is None or str(value) == "auto":
-        return device.type == "cuda" and graph_safe
+    if value is None or str(value) == "auto":  # off under torchrun: the gradient all-reduce is not captured
+        return device.type == "cuda" and graph_safe and not distributed.is_active()
     if not isinstance(value, bool):
         raise ValueError(f"cudagraph_update must be auto, true or false; got {value!r}")
     if value and not graph_safe:
@@ -200,7 +204,8 @@ def build_hooks(cfg: DictConfig, logger: Any = None) -> list[TrainerHook]:
                                 float(lc.get("max_lr", 1e-2)), period=period))
     if logger is not None:
         hooks.append(MetricsLogger(logger))
-    hooks.append(ProgressHook(str(lg.get("progress", "auto")), int(lg.get("print_every", 1) or 1)))
+    if distributed.rank() == 0:  # torchrun: one process prints
+        hooks.append(ProgressHook(str(lg.get("progress", "auto")), int(lg.get("print_every", 1) or 1)))
     hooks.append(Checkpointer(ck.dir, int(ck.get("every", 0) or 0), int(ck.get("keep_last", 0) or 0),
                               bool(ck.get("save_final", True))))
     return hooks
@@ -211,7 +216,7 @@ def load_resume_checkpoint(cfg: DictConfig) -> dict[str, Any] | None:
     if not cfg.get("resume"):
         return None
     try:
-        return load_checkpoint(str(cfg.resume))
+        return load_checkpoint(rank_file(str(cfg.resume), distributed.rank()))  # torchrun: this rank's own file
     except CheckpointError as err:
         raise ValueError(f"resume={cfg.resume}: {err.reason}") from err
 
@@ -232,9 +237,15 @@ def build_trainer(
     """
     cfg = as_config(cfg)
     check_config(cfg)
+    device = resolve_device(cfg.get("device", "auto"))
+    context = distributed.context_from_environment()
+    if context is not None:  # torchrun: this process is one rank of the run
+        check_distributed(cfg, context)
+        device = rank_device(device, context)
+        distributed.init_process_group(context, device)
     resumed = load_resume_checkpoint(cfg)
     resolve_run_paths(cfg, None if resumed is None else resumed.get("config"))
-    device = resolve_device(cfg.get("device", "auto"))
+    share_run_paths(cfg)
     if cfg.get("cudagraphs", False) and device.type != "cuda":
         raise ValueError(f"cudagraphs=true needs a CUDA device (device={device})")
     if cfg.get("torch_threads"):
@@ -263,6 +274,8 @@ def build_trainer(
     actor, critic = build_networks(cfg, env, device)
     num_tasks = int(base_env(env).num_tasks)
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
+    with torch.no_grad():  # torchrun: every rank starts from rank 0's networks
+        distributed.broadcast_([t.data for t in (*loss.parameters(), *loss.buffers())])
     update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
     graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
                                         graph_safe_update(update_module, loss))
@@ -273,7 +286,7 @@ def build_trainer(
             # compiled backward with donated buffers refuses ("compiled with non-empty donated buffers")
             torch._functorch.config.donated_buffer = False
         compile_networks(actor, critic, cfg.get("compile_mode") or None)
-    frames_per_batch = int(env.batch_size.numel()) * int(cfg.loss.horizon)
+    frames_per_batch = int(env.batch_size.numel()) * int(cfg.loss.horizon) * distributed.world_size()
     max_grad_norm = cfg.loss.get("max_grad_norm")
     trainer = Trainer(
         env,

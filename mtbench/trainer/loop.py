@@ -16,6 +16,7 @@ from torch import nn
 from torchrl.envs import EnvBase, TransformedEnv
 
 from ..transforms import PerTaskObservationNorm
+from ..utils import distributed
 from .checkpoint import CHECKPOINT_VERSION, CheckpointError, load_checkpoint, rng_state, save_checkpoint, set_rng_state
 from .hooks import TrainerHook
 from .metrics import EpisodeStatsWindow
@@ -124,8 +125,10 @@ class TrainingLoop:
         self.rollout = Rollout(env, policy, horizon, cudagraph_policy=cudagraph_policy, hold_keys=hold_keys,
                                hold_period=hold_period)
         self.horizon = self.rollout.horizon
-        self.num_envs = self.rollout.num_envs
-        self.frames_per_batch = self.num_envs * self.horizon
+        self.num_envs = self.rollout.num_envs  # this process's worlds
+        self.world_size = distributed.world_size()  # torchrun: processes training this run together
+        self.total_envs = self.num_envs * self.world_size  # the run's worlds, all ranks
+        self.frames_per_batch = self.total_envs * self.horizon  # the run's frames per iteration, all ranks
         if int(total_iterations) < 1:
             raise ValueError(f"max_iterations must be >= 1, got {total_iterations}")
         self.total_iterations = int(total_iterations)
@@ -169,7 +172,8 @@ class TrainingLoop:
     def collect(self, interruptible: bool = True) -> tuple[TensorDictBase | None, TensorDictBase | None]:
         """The rollout (``None`` if a stop request interrupted it) and the episode statistics finished in it.
         ``interruptible=False``: a stop request waits for the end of the rollout (checked between iterations)."""
-        stop = self._stop if interruptible else None
+        # torchrun: the ranks stop together, between iterations (:meth:`train`), never inside a rollout
+        stop = self._stop if interruptible and not distributed.is_active() else None
         data = self.rollout.collect(
             on_step=lambda step, horizon: self._call("on_rollout_step", step, horizon),
             should_stop=None if stop is None else stop,
@@ -182,6 +186,7 @@ class TrainingLoop:
         """Push the iteration's per-task episode statistics into the success window (a device -> host copy: on
         a GPU it also ends the collection timing) and return the run's env health totals
         (:data:`ENV_HEALTH_TOTALS`) that the env reports."""
+        distributed.all_reduce_stats_(stats)  # torchrun: every rank's episodes
         reported = [(stats.get(key, None), attr, metric) for key, attr, metric in ENV_HEALTH_TOTALS]
         self.window.push(stats)
         totals: dict[str, float] = {}
@@ -208,7 +213,7 @@ class TrainingLoop:
             self._stop = stop
             try:
                 self._call("on_train_start")
-                while self.iteration < self.total_iterations and not stop.requested:
+                while self.iteration < self.total_iterations and not self._stop_requested(stop):
                     metrics = self.train_iteration()
                     if metrics is None:
                         break
@@ -218,8 +223,12 @@ class TrainingLoop:
                 raise
             finally:
                 self._stop = None
-            self._call("on_train_end", stop.requested)
+            self._call("on_train_end", self._stop_requested(stop))
         return history
+
+    def _stop_requested(self, stop: StopRequest) -> bool:
+        """Whether a stop was requested (torchrun: on any rank; every rank gets the same answer)."""
+        return distributed.any_rank(stop.requested, self.env.device)
 
     def success_table(self) -> str:
         """End-of-run per-task table (success over the last ``success_window`` iterations)."""
@@ -284,6 +293,8 @@ class TrainingLoop:
             "window": self.window.state_dict(),
             "hooks": {h.name: h.state_dict() for h in self.hooks},
             "rng": rng_state(),
+            # torchrun: each rank's file holds its own env, rollout and generators; a run resumes with as many ranks
+            "distributed": {"rank": distributed.rank(), "world_size": self.world_size},
             **self._extra_state(),
         }
 
@@ -322,6 +333,11 @@ class TrainingLoop:
             saved_value = saved_info.get(key, value)
             if saved_value != value:
                 diffs.append(f"env {key}: checkpoint={saved_value!r} current={value!r}")
+        saved_ranks = dict(state.get("distributed") or {"rank": 0, "world_size": 1})
+        if int(saved_ranks["world_size"]) != self.world_size or int(saved_ranks["rank"]) != distributed.rank():
+            diffs.append(f"processes: checkpoint=rank {saved_ranks['rank']} of {saved_ranks['world_size']} "
+                         f"current=rank {distributed.rank()} of {self.world_size} (a run resumes with the number of "
+                         f"torchrun processes it was started with, each from its own file)")
         if diffs:
             raise ValueError(f"cannot resume from {source}: configuration differs ({'; '.join(diffs)})")
         c = state["counters"]

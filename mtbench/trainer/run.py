@@ -4,6 +4,7 @@ per-task success table."""
 from __future__ import annotations
 
 import math
+import os
 import sys
 from pathlib import Path
 from typing import Any, Sequence
@@ -11,11 +12,14 @@ from typing import Any, Sequence
 import torch
 from omegaconf import DictConfig, open_dict
 
+from ..utils import distributed
+
 from .builder import build_trainer
 from .config import LOGGERS, as_config, check_config
 from .hooks import Checkpointer, MetricsLogger, NonFiniteGuard
 from .loop import TrainingLoop
 from .pretraining import needs_flat_stage, pretrain_flat
+from .ranks import check_distributed
 
 CPU_ENV_PRESET = "cpu_small"
 CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
@@ -107,22 +111,25 @@ def train_stage(cfg: DictConfig, env: Any = None) -> TrainingLoop:
     the logger, print the per-task table; returns the trainer."""
     trainer = build_trainer(cfg, env=env)
     cfg = trainer.config
-    logger = make_logger(cfg)  # after the env is built: a failing build leaves no empty log file behind
+    main = distributed.rank() == 0  # torchrun: rank 0 logs and prints
+    # after the env is built: a failing build leaves no empty log file behind
+    logger = make_logger(cfg) if main else None
     if logger is not None:
         trainer.add_hook(MetricsLogger(logger), before=Checkpointer)
-    print(
+    say = print if main else (lambda *args, **kwargs: None)
+    say(
         f"mtbench | {cfg.loss.name} arch={cfg.arch.name} grad={cfg.grad.name} env={cfg.env.name} "
         f"tasks={trainer.num_tasks} envs={trainer.num_envs} horizon={trainer.horizon} device={trainer.env.device} | "
         f"{trainer.total_iterations} iterations x {trainer.frames_per_batch:,} frames ({trainer.update_summary()}) | "
-        f"run {cfg.logging.exp_name}",
+        f"run {cfg.logging.exp_name}" + (f" | {trainer.world_size} processes" if trainer.world_size > 1 else ""),
         flush=True,
     )
     if trainer.iteration or trainer.rollout.steps_done:
-        print(f"resumed from {cfg.resume} at iteration {trainer.iteration} ({trainer.frames:,} frames)", flush=True)
+        say(f"resumed from {cfg.resume} at iteration {trainer.iteration} ({trainer.frames:,} frames)", flush=True)
     elif cfg.get("pretrained"):
         reset = cfg.get("pretrained_log_std")
         note = "" if reset is None else f" (policy log-std set to {reset:g}: sigma = {math.exp(reset):.3g})"
-        print(f"starting from the weights of {cfg.pretrained}{note}", flush=True)
+        say(f"starting from the weights of {cfg.pretrained}{note}", flush=True)
     try:
         trainer.train()
     finally:
@@ -130,12 +137,12 @@ def train_stage(cfg: DictConfig, env: Any = None) -> TrainingLoop:
         _close_logger(logger)
     guard = trainer.get_hook(NonFiniteGuard)
     skipped = guard.skipped_total if guard is not None else 0
-    print(f"\nPer-task {trainer.window.metric} over the last {trainer.window.window} iterations "
-          f"({trainer.frames:,} frames, {skipped} skipped updates):")
-    print(trainer.success_table(), flush=True)
+    say(f"\nPer-task {trainer.window.metric} over the last {trainer.window.window} iterations "
+        f"({trainer.frames:,} frames, {skipped} skipped updates):")
+    say(trainer.success_table(), flush=True)
     checkpointer = trainer.get_hook(Checkpointer)
     if checkpointer is not None and checkpointer.last_path is not None:
-        print(f"checkpoint: {checkpointer.last_path}")
+        say(f"checkpoint: {checkpointer.last_path}")
     return trainer
 
 
@@ -144,6 +151,13 @@ def run(cfg: DictConfig, env: Any = None) -> TrainingLoop | None:
     the pre-training of its architecture; :mod:`~mtbench.trainer.pretraining`), then fine-tunes from it. Returns the
     trainer of the last stage that ran, ``None`` when a stop request ended the pre-training."""
     cfg = as_config(cfg)
+    context = distributed.context_from_environment()
+    if context is not None:  # torchrun: one clear error before anything starts (e.g. a flat stage)
+        check_distributed(cfg, context)
+        try:
+            return train_stage(cfg, env)
+        finally:
+            distributed.shutdown()
     if needs_flat_stage(cfg):
         check_config(cfg)  # before a long pre-training: the fine-tuning's config errors show now
         print("== stage 1/2: flat-ground pre-training", flush=True)
@@ -160,7 +174,7 @@ def main_argv() -> list[str]:
     """``sys.argv`` with :func:`parkour_arch_overrides` applied, plus :func:`cpu_default_overrides` and
     :func:`resume_dir_overrides` (called by ``examples/train.py`` before Hydra parses)."""
     args, note = parkour_arch_overrides(sys.argv[1:])
-    if note is not None:
+    if note is not None and os.environ.get("RANK", "0") == "0":  # torchrun: one process prints
         print(note, flush=True)
     overrides = [*args, *cpu_default_overrides(args), *resume_dir_overrides(args)]
     # Hydra's argument parser takes the overrides as one run of positional arguments: keep its flags

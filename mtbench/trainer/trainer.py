@@ -98,8 +98,12 @@ class Trainer(TrainingLoop):
         if int(epochs) < 1:
             raise ValueError(f"loss.epochs must be >= 1, got {epochs}")
         self.epochs = int(epochs)
-        self.minibatch_size = effective_minibatch_size(self.num_envs, self.horizon, minibatch_size)
-        self.num_minibatches = self.frames_per_batch // self.minibatch_size
+        run_minibatch = effective_minibatch_size(self.total_envs, self.horizon, minibatch_size)
+        if run_minibatch % self.world_size:
+            raise ValueError(f"loss.minibatch_size={minibatch_size} must be divisible by the number of torchrun "
+                             f"processes ({self.world_size}): each takes an equal share of every minibatch")
+        self.minibatch_size = run_minibatch // self.world_size  # this process's share (all of it in one process)
+        self.num_minibatches = (self.num_envs * self.horizon) // self.minibatch_size
         self.updates_per_iteration = self.epochs * self.num_minibatches
         device = next(iter(self.optimizer.param_groups[0]["params"])).device
         self.updater = MinibatchUpdate(
@@ -115,7 +119,9 @@ class Trainer(TrainingLoop):
 
     def update_summary(self) -> str:
         """What one iteration's update does, for the front door's banner."""
-        return f"{self.epochs} epochs x {self.num_minibatches} minibatches of {self.minibatch_size:,}"
+        shares = f" ({self.world_size} processes x {self.minibatch_size:,})" if self.world_size > 1 else ""
+        return (f"{self.epochs} epochs x {self.num_minibatches} minibatches of "
+                f"{self.minibatch_size * self.world_size:,}{shares}")
 
     # ------------------------------------------------------------------ one iteration
     def advantage(self, data: TensorDictBase) -> TensorDictBase:

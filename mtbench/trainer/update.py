@@ -11,7 +11,7 @@ from tensordict import TensorDictBase
 from torch import nn
 
 from ..objectives import compute_gradients
-from ..utils import GraphedStage
+from ..utils import GraphedStage, distributed
 
 HookCaller = Callable[[str, Any], None]
 #: the policy's current distribution parameters on a minibatch, ``{key: tensor}`` (e.g. ``loc``, ``scale``)
@@ -118,6 +118,11 @@ class MinibatchUpdate:
             self._keep_reference(minibatch)
         self.optimizer.zero_grad(set_to_none=True)
         out = compute_gradients(self.update_module, minibatch)
+        if distributed.is_active():  # torchrun: the gradient of the union of the ranks' minibatches
+            for p in self.params:
+                if p.grad is None:
+                    p.grad = torch.zeros_like(p)
+            distributed.all_reduce_mean_([p.grad for p in self.params])
         group_norms: dict[str, torch.Tensor] = {}
         if self.clip_groups is not None:
             for name, params in self.clip_groups.items():
@@ -129,6 +134,9 @@ class MinibatchUpdate:
         metrics.set("grad_norm", grad_norm.detach())
         for name, norm in group_norms.items():
             metrics.set(f"grad_norm_{name}", norm.detach())
+        if distributed.is_active():  # every rank's hooks (e.g. the adaptive learning rate) see the same numbers
+            distributed.all_reduce_mean_([v for v in metrics.values() if isinstance(v, torch.Tensor)
+                                          and v.is_floating_point()])
         self.call_hooks("before_optimizer_step", metrics)
         self.optimizer.step()
         if self.after_step is not None:

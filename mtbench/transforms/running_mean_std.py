@@ -7,6 +7,8 @@ from typing import Any
 import torch
 from torch import nn
 
+from ..utils.distributed import all_reduce_sum_
+
 
 class PerTaskRunningMeanStd(nn.Module):
     """Running mean and (population) variance of ``D``-dimensional data, one set of statistics per task.
@@ -98,12 +100,14 @@ class PerTaskRunningMeanStd(nn.Module):
         w = finite.to(torch.float64)
         x = torch.where(finite.unsqueeze(-1), x, torch.zeros((), dtype=x.dtype, device=x.device))
         k, d = self.num_tasks, self.dim
-        n_b = torch.zeros(k, dtype=torch.float64, device=x.device).index_add_(0, tid, w)
-        s_b = torch.zeros(k, d, dtype=torch.float64, device=x.device).index_add_(0, tid, x)
+        # the batch's statistics over every rank's rows (torchrun; single process: this process's rows)
+        n_b = all_reduce_sum_(torch.zeros(k, dtype=torch.float64, device=x.device).index_add_(0, tid, w))
+        s_b = all_reduce_sum_(torch.zeros(k, d, dtype=torch.float64, device=x.device).index_add_(0, tid, x))
         safe_n_b = n_b.clamp_min(1.0).unsqueeze(-1)
         mean_b = s_b / safe_n_b
         centered = (x - mean_b[tid]) * w.unsqueeze(-1)
-        m2_b = torch.zeros(k, d, dtype=torch.float64, device=x.device).index_add_(0, tid, centered * centered)
+        m2_b = all_reduce_sum_(
+            torch.zeros(k, d, dtype=torch.float64, device=x.device).index_add_(0, tid, centered * centered))
 
         n_a = self.count
         n = n_a + n_b

@@ -77,8 +77,8 @@ class EpsilonSchedule(TrainerHook):
     def clock_frames(self, trainer: Any, steps_done: int) -> int:
         """The schedule's position before env step ``steps_done`` of the current rollout (see ``clock``)."""
         if self.clock == "mtbench":
-            return trainer.num_envs * (trainer.iteration + steps_done + 1)
-        return trainer.frames + trainer.num_envs * steps_done
+            return trainer.total_envs * (trainer.iteration + steps_done + 1)
+        return trainer.frames + trainer.total_envs * steps_done
 
     def _set(self, trainer: Any, steps_done: int) -> None:
         frames = self.clock_frames(trainer, steps_done)
