@@ -1,7 +1,7 @@
 """torchrun: N processes train one run. Two CPU processes (gloo) against one process on the same data: the running
-statistics, the per-task advantage standardisation and one whole MT-PPO minibatch update are the same; a two-process
-``examples/train.py`` run writes one checkpoint per rank and resumes only with two processes; what does not split
-over processes is refused with one clear error."""
+statistics, the per-task advantage standardisation and one whole MT-PPO minibatch update (every gradient method) are
+the same; a two-process ``examples/train.py`` run writes one checkpoint per rank and resumes only with two processes;
+a two-process MT-SAC run keeps its networks equal; what does not split over processes is one clear error."""
 
 from __future__ import annotations
 
@@ -188,7 +188,8 @@ def _cfg(**changes: Any) -> Any:
 
 
 @pytest.mark.parametrize(("changes", "match"), [
-    ({"loss__name": "sac"}, r"loss=sac does not run under torchrun .*\['ppo', 'grpo', 'pqn'\]"),
+    ({"loss": {"name": "sac", "batch_size": 8192, "replay_buffer_size": 1000001}},
+     r"loss.replay_buffer_size=1000001 must be divisible by the number of torchrun processes \(2\)"),
     ({"env__num_envs": 63}, r"env.num_envs=63 must be divisible by the number of torchrun processes \(2\)"),
     ({"cudagraph_update": True}, "cudagraph_update=true does not run under torchrun"),
     ({"device": "cuda:1"}, "device=cuda:1: under torchrun each process takes cuda:<LOCAL_RANK>"),
@@ -214,11 +215,14 @@ def test_rank_files() -> None:
 
 
 # ---------------------------------------------------------------------------------------------- the front door
-def _torchrun(tmp_path: Path, nproc: int, *overrides: str) -> subprocess.CompletedProcess[str]:
+PPO_SIZES = ("loss=ppo", "loss.horizon=8", "loss.minibatch_size=48", "loss.epochs=2")
+
+
+def _torchrun(tmp_path: Path, nproc: int, *overrides: str, sizes: tuple[str, ...] = PPO_SIZES
+              ) -> subprocess.CompletedProcess[str]:
     cmd = [sys.executable, "-m", "torch.distributed.run", f"--nproc_per_node={nproc}", "--master_port",
-           str(_free_port()), str(ROOT / "examples" / "train.py"), "device=cpu", "env=cpu_small", "loss=ppo",
-           "env.num_envs=12", "loss.horizon=8", "loss.minibatch_size=48", "loss.epochs=2", "torch_threads=1",
-           f"checkpoint.dir={tmp_path / 'ck'}", f"logging.log_dir={tmp_path / 'logs'}", "logging.exp_name=ddp",
+           str(_free_port()), str(ROOT / "examples" / "train.py"), "device=cpu", "env=cpu_small", *sizes,
+           "env.num_envs=12", "torch_threads=1", f"checkpoint.dir={tmp_path / 'ck'}", f"logging.log_dir={tmp_path / 'logs'}", "logging.exp_name=ddp",
            f"hydra.run.dir={tmp_path / 'hydra'}", "logging.progress=none", *overrides]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     return subprocess.run(cmd, capture_output=True, text=True, timeout=900, env=env, cwd=tmp_path)
@@ -251,3 +255,16 @@ def test_two_process_run_checkpoints_each_rank_and_resumes_only_with_two(tmp_pat
     assert again.returncode == 0, again.stdout[-3000:] + again.stderr[-3000:]
     assert "resumed from" in again.stdout and "at iteration 2" in again.stdout
     assert load_checkpoint(tmp_path / "ck" / "rank1" / "final.pt")["counters"]["iteration"] == 3
+
+
+def test_two_process_sac_run_keeps_the_networks_equal(tmp_path: Path) -> None:
+    """MT-SAC: each process replays half of every batch from its own buffer; after the updates the two processes'
+    actor, Q networks, target networks and temperatures are the same."""
+    run = _torchrun(tmp_path, 2, "max_iterations=6", "loss.warmup_steps=2", "loss.batch_size=64",
+                    "loss.replay_buffer_size=2000", sizes=("loss=sac",))
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    assert "2 updates of 64 replayed" in run.stdout and "(2 processes x 32, buffers of 1,000)" in run.stdout
+    main, other = load_checkpoint(tmp_path / "ck" / "final.pt"), load_checkpoint(tmp_path / "ck" / "rank1" / "final.pt")
+    assert main["counters"]["updates"] == other["counters"]["updates"] > 0
+    for key, value in main["loss"].items():
+        torch.testing.assert_close(other["loss"][key], value, msg=key)

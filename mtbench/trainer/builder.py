@@ -263,7 +263,8 @@ def build_trainer(
         trainer: TrainingLoop = build_sac_trainer(
             cfg, env, device, hooks=build_hooks(cfg, logger),
             update_module_factory=lambda loss, k: build_gradient_method(cfg.get("grad"), loss, k),
-            total_iterations=total_iterations(cfg, int(env.batch_size.numel()) * int(cfg.loss.horizon)),
+            total_iterations=total_iterations(
+                cfg, int(env.batch_size.numel()) * int(cfg.loss.horizon) * distributed.world_size()),
         )
         if resumed is not None:
             trainer.load_state_dict(resumed, source=str(cfg.resume))

@@ -173,8 +173,10 @@ class OffPolicyTrainer(TrainingLoop):
 
     def update_summary(self) -> str:
         """What one iteration's update does, for the front door's banner."""
-        return (f"{self.gradient_steps} updates of {self.batch_size:,} replayed {self.nstep.n}-step transitions, "
-                f"buffer {self.replay.storage.max_size:,}, {self.warmup_iterations} warm-up iterations"
+        n = self.world_size  # torchrun: each process replays its share from its own buffer
+        shares = f" ({n} processes x {self.batch_size:,}, buffers of {self.replay.storage.max_size:,})" if n > 1 else ""
+        return (f"{self.gradient_steps} updates of {self.batch_size * n:,} replayed {self.nstep.n}-step transitions, "
+                f"buffer {self.replay.storage.max_size * n:,}{shares}, {self.warmup_iterations} warm-up iterations"
                 + (", updates overlapped with the collection" if self.overlap_update else ""))
 
     # ------------------------------------------------------------------ one iteration

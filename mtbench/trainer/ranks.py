@@ -3,7 +3,8 @@ builds, where it writes, and the settings that do not run that way (one clear er
 
 Each rank simulates ``env.num_envs / N`` worlds (every task's share, split by the env as in one process) from its
 own env seed, on its own device (``cuda:<LOCAL_RANK>``, or the CPU with the gloo backend), and takes
-``loss.minibatch_size / N`` samples of every minibatch; the networks start equal (rank 0's), the gradients and the
+``loss.minibatch_size / N`` samples of every minibatch (MT-SAC: ``loss.batch_size / N`` of every replayed batch, from
+its own replay buffer of ``loss.replay_buffer_size / N``); the networks start equal (rank 0's), the gradients and the
 per-task statistics are reduced over the ranks (:mod:`mtbench.utils.distributed`). Rank 0 logs, prints and writes
 its checkpoints to ``checkpoint.dir``; rank ``r`` writes its own (its env, rollout and generators) to
 ``checkpoint.dir/rank<r>``. ``resume=<checkpoint.dir>/<file>`` resumes every rank from its own file, with the
@@ -21,8 +22,6 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from ..utils import distributed
 from ..utils.distributed import DistributedContext
 
-#: the losses whose loop runs under torchrun (the on-policy :class:`~mtbench.trainer.Trainer`)
-DISTRIBUTED_LOSSES = ("ppo", "grpo", "pqn")
 #: rank r's env seed is ``seed + RANK_SEED_STRIDE * r`` (rank 0: the single-process run's)
 RANK_SEED_STRIDE = 1_000_003
 
@@ -30,12 +29,11 @@ RANK_SEED_STRIDE = 1_000_003
 def check_distributed(cfg: DictConfig, context: DistributedContext) -> None:
     """One ``ValueError`` naming the parameter when the run cannot be split over ``context.world_size`` processes."""
     n = context.world_size
-    if cfg.loss.name not in DISTRIBUTED_LOSSES:
-        raise ValueError(f"loss={cfg.loss.name} does not run under torchrun ({n} processes); valid choices there: "
-                         f"{list(DISTRIBUTED_LOSSES)} (MT-SAC trains in one process)")
-    num_envs = int(cfg.env.num_envs)
-    if num_envs % n:
-        raise ValueError(f"env.num_envs={num_envs} must be divisible by the number of torchrun processes ({n})")
+    sizes = ["env.num_envs"] + (["loss.batch_size", "loss.replay_buffer_size"] if cfg.loss.name == "sac" else [])
+    for key in sizes:  # (loss.minibatch_size of the on-policy losses: checked by the Trainer against the batch)
+        value = int(OmegaConf.select(cfg, key))
+        if value % n:
+            raise ValueError(f"{key}={value} must be divisible by the number of torchrun processes ({n})")
     if cfg.get("cudagraph_update") is True:
         raise ValueError("cudagraph_update=true does not run under torchrun (the gradient all-reduce is not captured); "
                          "use auto or false")
@@ -98,5 +96,5 @@ def rank_seed(seed: int) -> int:
     return int(seed) + RANK_SEED_STRIDE * distributed.rank()
 
 
-__all__ = ["DISTRIBUTED_LOSSES", "RANK_SEED_STRIDE", "check_distributed", "rank_device", "rank_env_config",
+__all__ = ["RANK_SEED_STRIDE", "check_distributed", "rank_device", "rank_env_config",
            "rank_file", "rank_seed", "share_run_paths"]

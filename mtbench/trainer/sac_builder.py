@@ -14,6 +14,7 @@ from torchrl.objectives import SoftUpdate
 
 from ..objectives import MTSACLoss
 from ..transforms import PerTaskObservationNorm
+from ..utils import distributed
 from .env_factory import network_sizes
 from .off_policy import RAW_OBSERVATION_KEY, OffPolicyTrainer
 from .rollout import base_env
@@ -126,6 +127,9 @@ def build_sac_trainer(
     actor, qvalues = build_sac_networks(cfg, env, device)
     num_tasks = int(base_env(env).num_tasks)
     loss = build_sac_loss(lc, actor, qvalues, num_tasks, int(env.action_spec.shape[-1]), device)
+    with torch.no_grad():  # torchrun: every rank starts from rank 0's networks (and target networks)
+        distributed.broadcast_([t.data for t in (*loss.parameters(), *loss.buffers())])
+    ranks = distributed.world_size()  # torchrun: each rank replays its share of every batch from its own buffer
     target_update = SoftUpdate(loss, tau=float(lc["critic_tau"]))
     max_grad_norm = lc.get("max_grad_norm")
     update_module = update_module_factory(loss, num_tasks)
@@ -138,8 +142,8 @@ def build_sac_trainer(
         build_sac_optimizer(loss, lc, device, capturable=graph_update),
         horizon=int(lc.horizon),
         gradient_steps=int(lc.gradient_steps_per_iteration),
-        batch_size=int(lc.batch_size),
-        replay_buffer_size=int(lc.replay_buffer_size),
+        batch_size=int(lc.batch_size) // ranks,
+        replay_buffer_size=int(lc.replay_buffer_size) // ranks,
         nstep=int(lc.nstep),
         gamma=float(lc.gamma),
         warmup_steps=int(lc.warmup_steps),
