@@ -201,29 +201,23 @@ def test_what_does_not_split_over_processes_is_one_clear_error(changes: dict[str
         check_distributed(_cfg(**changes), ctx)
 
 
-def test_parkour_flat_stage_is_refused_under_torchrun() -> None:
-    cfg = _cfg(env={"name": "parkour_hard_cl", "num_envs": 42}, pretrain={"iterations": 3})
-    with pytest.raises(ValueError, match="flat pre-training does not run under torchrun"):
-        check_distributed(cfg, DistributedContext(0, 2, 0))
-    cfg.pretrain.iterations = 0
-    check_distributed(cfg, DistributedContext(0, 2, 0))
-
-
 def test_rank_files() -> None:
     assert rank_file("/r/checkpoints/last.pt", 0) == Path("/r/checkpoints/last.pt")
     assert rank_file("/r/checkpoints/last.pt", 3) == Path("/r/checkpoints/rank3/last.pt")
 
 
 # ---------------------------------------------------------------------------------------------- the front door
-PPO_SIZES = ("loss=ppo", "loss.horizon=8", "loss.minibatch_size=48", "loss.epochs=2")
+PPO_SIZES = ("env=cpu_small", "env.num_envs=12", "loss=ppo", "loss.horizon=8", "loss.minibatch_size=48",
+             "loss.epochs=2")
 
 
 def _torchrun(tmp_path: Path, nproc: int, *overrides: str, sizes: tuple[str, ...] = PPO_SIZES
               ) -> subprocess.CompletedProcess[str]:
+    tmp_path.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, "-m", "torch.distributed.run", f"--nproc_per_node={nproc}", "--master_port",
-           str(_free_port()), str(ROOT / "examples" / "train.py"), "device=cpu", "env=cpu_small", *sizes,
-           "env.num_envs=12", "torch_threads=1", f"checkpoint.dir={tmp_path / 'ck'}", f"logging.log_dir={tmp_path / 'logs'}", "logging.exp_name=ddp",
-           f"hydra.run.dir={tmp_path / 'hydra'}", "logging.progress=none", *overrides]
+           str(_free_port()), str(ROOT / "examples" / "train.py"), "device=cpu", *sizes,
+           "torch_threads=1", f"checkpoint.dir={tmp_path / 'ck'}", f"logging.log_dir={tmp_path / 'logs'}",
+           "logging.exp_name=ddp", f"hydra.run.dir={tmp_path / 'hydra'}", "logging.progress=none", *overrides]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     return subprocess.run(cmd, capture_output=True, text=True, timeout=900, env=env, cwd=tmp_path)
 
@@ -232,7 +226,7 @@ def test_two_process_run_checkpoints_each_rank_and_resumes_only_with_two(tmp_pat
     run = _torchrun(tmp_path, 2, "max_iterations=2")
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     assert run.stdout.count("mtbench | ppo") == 1  # one process prints
-    assert "2 processes" in run.stdout and "(2 processes x 24)" in run.stdout
+    assert "envs=12 " in run.stdout and "(2 processes x 24)" in run.stdout  # the run's totals, each rank's share
     main, other = load_checkpoint(tmp_path / "ck" / "final.pt"), load_checkpoint(tmp_path / "ck" / "rank1" / "final.pt")
     assert main["distributed"] == {"rank": 0, "world_size": 2}
     assert other["distributed"] == {"rank": 1, "world_size": 2}
@@ -261,10 +255,30 @@ def test_two_process_sac_run_keeps_the_networks_equal(tmp_path: Path) -> None:
     """MT-SAC: each process replays half of every batch from its own buffer; after the updates the two processes'
     actor, Q networks, target networks and temperatures are the same."""
     run = _torchrun(tmp_path, 2, "max_iterations=6", "loss.warmup_steps=2", "loss.batch_size=64",
-                    "loss.replay_buffer_size=2000", sizes=("loss=sac",))
+                    "loss.replay_buffer_size=2000", sizes=("env=cpu_small", "env.num_envs=12", "loss=sac"))
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     assert "2 updates of 64 replayed" in run.stdout and "(2 processes x 32, buffers of 1,000)" in run.stdout
     main, other = load_checkpoint(tmp_path / "ck" / "final.pt"), load_checkpoint(tmp_path / "ck" / "rank1" / "final.pt")
     assert main["counters"]["updates"] == other["counters"]["updates"] > 0
     for key, value in main["loss"].items():
         torch.testing.assert_close(other["loss"][key], value, msg=key)
+
+
+def test_two_process_parkour_run_trains_its_flat_stage_then_reuses_it(tmp_path: Path) -> None:
+    """The headline command's two stages under torchrun (the CI's tiny grid): all ranks train the flat stage, then
+    fine-tune from it; a second run reuses the stage."""
+    tiny = ("env=parkour_hard_cl", "env.num_envs=42", "loss=ppo", "arch=moore", "env.overrides.num_rows=2",
+            "pretrain.iterations=2", f"pretrain.dir={tmp_path / 'pretrained'}")
+    first = _torchrun(tmp_path, 2, "max_iterations=2", sizes=tiny)
+    assert first.returncode == 0, first.stdout[-3000:] + first.stderr[-3000:]
+    assert first.stdout.count("flat pre-training: 2 iterations on parkour_flat") == 1  # one process prints
+    assert "== stage 2/2: parkour_hard_cl" in first.stdout
+    stage = next((tmp_path / "pretrained").glob("moore-*"))
+    main = load_checkpoint(stage / "checkpoints" / "final.pt")
+    other = load_checkpoint(stage / "checkpoints" / "rank1" / "final.pt")
+    assert main["distributed"]["world_size"] == 2 and main["counters"]["iteration"] == 2
+    for key, value in main["loss"].items():
+        torch.testing.assert_close(other["loss"][key], value, msg=key)
+    again = _torchrun(tmp_path / "again", 2, "max_iterations=1", sizes=tiny)
+    assert again.returncode == 0, again.stdout[-3000:] + again.stderr[-3000:]
+    assert f"flat pre-training: reusing {stage / 'checkpoints' / 'final.pt'}" in again.stdout

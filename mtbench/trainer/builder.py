@@ -31,7 +31,7 @@ from .hooks import AdaptiveLR, Checkpointer, MetricsLogger, NonFiniteGuard, Prog
 from .loop import TrainingLoop
 from .pqn import build_pqn_loss, build_radam, discrete_action_env, make_pqn_policy, pqn_hold_keys, pqn_hooks
 from .pretraining import load_pretrained
-from .ranks import check_distributed, rank_device, rank_env_config, rank_file, rank_seed, share_run_paths
+from .ranks import join_run, rank_env_config, rank_file, rank_seed, share_run_paths
 from .rollout import base_env
 from .sac_builder import build_sac_trainer
 from .trainer import Trainer
@@ -237,12 +237,7 @@ def build_trainer(
     """
     cfg = as_config(cfg)
     check_config(cfg)
-    device = resolve_device(cfg.get("device", "auto"))
-    context = distributed.context_from_environment()
-    if context is not None:  # torchrun: this process is one rank of the run
-        check_distributed(cfg, context)
-        device = rank_device(device, context)
-        distributed.init_process_group(context, device)
+    device = join_run(cfg, resolve_device(cfg.get("device", "auto")))  # torchrun: this rank's device
     resumed = load_resume_checkpoint(cfg)
     resolve_run_paths(cfg, None if resumed is None else resumed.get("config"))
     share_run_paths(cfg)

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterator
 import torch
 from omegaconf import DictConfig, OmegaConf, open_dict
 
+from ..utils import distributed
 from .checkpoint import CheckpointError, load_checkpoint
 
 if TYPE_CHECKING:
@@ -140,22 +141,27 @@ def pretrain_flat(cfg: DictConfig, train_stage: Callable[[DictConfig], "Trainer"
     stage = flat_stage_config(cfg)
     directory = stage_directory(cfg, stage)
     final = directory / "checkpoints" / "final.pt"
-    with _locked(directory / ".lock"):
-        if final.is_file():
+    main = distributed.rank() == 0  # torchrun: rank 0 holds the lock and decides, the other ranks follow
+    with _locked(directory / ".lock") if main else contextlib.nullcontext():
+        last = directory / "checkpoints" / "last.pt"
+        reuse, resume = distributed.broadcast_object((final.is_file(), last.is_file()))
+        if reuse:
             echo(f"flat pre-training: reusing {final} (arch={stage.arch.name}, {stage.max_iterations} iterations)")
             return final
-        last = directory / "checkpoints" / "last.pt"
         with open_dict(stage):
             stage.logging.exp_name = f"pretrain-{directory.name}"
             stage.logging.log_dir = str(directory)
             stage.checkpoint.dir = str(directory / "checkpoints")
-            stage.resume = str(last) if last.is_file() else None
-        (directory / STAGE_FILE).write_text(json.dumps(
-            {"key": stage_key(stage), **{k: _plain(stage.get(k)) for k in ("arch", "loss", "env", "max_iterations",
-                                                                            "seed")}}, indent=2, sort_keys=True))
+            stage.resume = str(last) if resume else None
+        if main:
+            (directory / STAGE_FILE).write_text(json.dumps(
+                {"key": stage_key(stage), **{k: _plain(stage.get(k)) for k in ("arch", "loss", "env",
+                                                                                "max_iterations", "seed")}},
+                indent=2, sort_keys=True))
         how = f"continuing from {last}" if stage.resume else "no checkpoint for this architecture yet"
         echo(f"flat pre-training: {stage.max_iterations} iterations on {FLAT_SETTING} ({how}) -> {directory}")
         trainer = train_stage(stage)
+        distributed.barrier()  # torchrun: rank 0's final checkpoint is written
         if trainer.iteration < trainer.total_iterations or not final.is_file():
             echo(f"flat pre-training stopped at iteration {trainer.iteration}/{trainer.total_iterations}; run the "
                  "same command again to continue it")

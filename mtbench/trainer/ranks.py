@@ -8,7 +8,8 @@ its own replay buffer of ``loss.replay_buffer_size / N``); the networks start eq
 per-task statistics are reduced over the ranks (:mod:`mtbench.utils.distributed`). Rank 0 logs, prints and writes
 its checkpoints to ``checkpoint.dir``; rank ``r`` writes its own (its env, rollout and generators) to
 ``checkpoint.dir/rank<r>``. ``resume=<checkpoint.dir>/<file>`` resumes every rank from its own file, with the
-number of processes the run was started with.
+number of processes the run was started with. Parkour's automatic flat pre-training runs on all ranks too: rank 0
+holds the stage's lock and decides (reuse or train), the others follow.
 """
 
 from __future__ import annotations
@@ -41,12 +42,18 @@ def check_distributed(cfg: DictConfig, context: DistributedContext) -> None:
     if device.startswith("cuda:"):
         raise ValueError(f"device={device}: under torchrun each process takes cuda:<LOCAL_RANK>; use device=cuda, "
                          "auto or cpu")
-    from .pretraining import needs_flat_stage
 
-    if needs_flat_stage(cfg):
-        raise ValueError("Parkour's automatic flat pre-training does not run under torchrun: train the stage first "
-                         "(torchrun ... env=parkour_flat, or one process) and pass pretrained=<its final.pt>, or "
-                         "set pretrain.iterations=0")
+
+def join_run(cfg: DictConfig, device: torch.device) -> torch.device:
+    """Under torchrun: check that ``cfg`` splits (:func:`check_distributed`), join the process group (once per process)
+    and return this rank's device; ``device`` unchanged in a single process."""
+    context = distributed.context_from_environment()
+    if context is None:
+        return device
+    check_distributed(cfg, context)
+    device = rank_device(device, context)
+    distributed.init_process_group(context, device)
+    return device
 
 
 def rank_device(device: torch.device, context: DistributedContext) -> torch.device:
@@ -96,5 +103,5 @@ def rank_seed(seed: int) -> int:
     return int(seed) + RANK_SEED_STRIDE * distributed.rank()
 
 
-__all__ = ["RANK_SEED_STRIDE", "check_distributed", "rank_device", "rank_env_config",
+__all__ = ["RANK_SEED_STRIDE", "check_distributed", "join_run", "rank_device", "rank_env_config",
            "rank_file", "rank_seed", "share_run_paths"]

@@ -15,11 +15,11 @@ from omegaconf import DictConfig, open_dict
 from ..utils import distributed
 
 from .builder import build_trainer
-from .config import LOGGERS, as_config, check_config
+from .config import LOGGERS, as_config, check_config, resolve_device
 from .hooks import Checkpointer, MetricsLogger, NonFiniteGuard
 from .loop import TrainingLoop
 from .pretraining import needs_flat_stage, pretrain_flat
-from .ranks import check_distributed
+from .ranks import join_run
 
 CPU_ENV_PRESET = "cpu_small"
 CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
@@ -119,7 +119,7 @@ def train_stage(cfg: DictConfig, env: Any = None) -> TrainingLoop:
     say = print if main else (lambda *args, **kwargs: None)
     say(
         f"mtbench | {cfg.loss.name} arch={cfg.arch.name} grad={cfg.grad.name} env={cfg.env.name} "
-        f"tasks={trainer.num_tasks} envs={trainer.num_envs} horizon={trainer.horizon} device={trainer.env.device} | "
+        f"tasks={trainer.num_tasks} envs={trainer.total_envs} horizon={trainer.horizon} device={trainer.env.device} | "
         f"{trainer.total_iterations} iterations x {trainer.frames_per_batch:,} frames ({trainer.update_summary()}) | "
         f"run {cfg.logging.exp_name}" + (f" | {trainer.world_size} processes" if trainer.world_size > 1 else ""),
         flush=True,
@@ -151,22 +151,27 @@ def run(cfg: DictConfig, env: Any = None) -> TrainingLoop | None:
     the pre-training of its architecture; :mod:`~mtbench.trainer.pretraining`), then fine-tunes from it. Returns the
     trainer of the last stage that ran, ``None`` when a stop request ended the pre-training."""
     cfg = as_config(cfg)
-    context = distributed.context_from_environment()
-    if context is not None:  # torchrun: one clear error before anything starts (e.g. a flat stage)
-        check_distributed(cfg, context)
-        try:
-            return train_stage(cfg, env)
-        finally:
-            distributed.shutdown()
+    if distributed.context_from_environment() is None:
+        return _run_stages(cfg, env)
+    check_config(cfg)
+    join_run(cfg, resolve_device(cfg.get("device", "auto")))  # torchrun: one clear error before anything starts
+    try:
+        return _run_stages(cfg, env)
+    finally:
+        distributed.shutdown()
+
+
+def _run_stages(cfg: DictConfig, env: Any) -> TrainingLoop | None:
+    say = print if distributed.rank() == 0 else (lambda *args, **kwargs: None)
     if needs_flat_stage(cfg):
         check_config(cfg)  # before a long pre-training: the fine-tuning's config errors show now
-        print("== stage 1/2: flat-ground pre-training", flush=True)
-        path = pretrain_flat(cfg, train_stage)
+        say("== stage 1/2: flat-ground pre-training", flush=True)
+        path = pretrain_flat(cfg, train_stage, echo=say)
         if path is None:
             return None
         with open_dict(cfg):
             cfg.pretrained = str(path)
-        print(f"== stage 2/2: {cfg.env.name}", flush=True)
+        say(f"== stage 2/2: {cfg.env.name}", flush=True)
     return train_stage(cfg, env)
 
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import torch
 import torch.distributed as dist
@@ -135,6 +135,21 @@ def broadcast_(tensors: Sequence[torch.Tensor], src: int = 0) -> None:
         dist.broadcast(t, src=src)
 
 
+def broadcast_object(obj: Any, src: int = 0) -> Any:
+    """Rank ``src``'s ``obj`` (picklable) on every rank (``obj`` itself without a group)."""
+    if not _ACTIVE:
+        return obj
+    box = [obj]
+    dist.broadcast_object_list(box, src=src)
+    return box[0]
+
+
+def barrier() -> None:
+    """Wait until every rank got here (a no-op without a group)."""
+    if _ACTIVE:
+        dist.barrier()
+
+
 def any_rank(flag: bool, device: torch.device) -> bool:
     """Whether ``flag`` holds on at least one rank (every rank gets the same answer; ``flag`` without a group)."""
     if not _ACTIVE:
@@ -151,7 +166,9 @@ __all__ = [
     "all_reduce_stats_",
     "all_reduce_sum_",
     "any_rank",
+    "barrier",
     "broadcast_",
+    "broadcast_object",
     "context_from_environment",
     "init_process_group",
     "is_active",
