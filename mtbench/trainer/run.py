@@ -13,7 +13,6 @@ import torch
 from omegaconf import DictConfig, open_dict
 
 from ..utils import distributed
-
 from .builder import build_trainer
 from .config import LOGGERS, as_config, check_config, resolve_device
 from .hooks import Checkpointer, MetricsLogger, NonFiniteGuard
@@ -106,17 +105,21 @@ def _close_logger(logger: Any) -> None:
         close()
 
 
+def say(*args: Any, **kwargs: Any) -> None:
+    """``print`` on rank 0 only (torchrun: one process prints; every process in a single-process run)."""
+    if distributed.rank() == 0:
+        print(*args, **kwargs)
+
+
 def train_stage(cfg: DictConfig, env: Any = None) -> TrainingLoop:
     """Build one run (:func:`~mtbench.trainer.builder.build_trainer`), attach the logger, train, close the env and
     the logger, print the per-task table; returns the trainer."""
     trainer = build_trainer(cfg, env=env)
     cfg = trainer.config
-    main = distributed.rank() == 0  # torchrun: rank 0 logs and prints
-    # after the env is built: a failing build leaves no empty log file behind
-    logger = make_logger(cfg) if main else None
+    # after the env is built: a failing build leaves no empty log file behind; torchrun: rank 0 logs
+    logger = make_logger(cfg) if distributed.rank() == 0 else None
     if logger is not None:
         trainer.add_hook(MetricsLogger(logger), before=Checkpointer)
-    say = print if main else (lambda *args, **kwargs: None)
     say(
         f"mtbench | {cfg.loss.name} arch={cfg.arch.name} grad={cfg.grad.name} env={cfg.env.name} "
         f"tasks={trainer.num_tasks} envs={trainer.total_envs} horizon={trainer.horizon} device={trainer.env.device} | "
@@ -162,7 +165,6 @@ def run(cfg: DictConfig, env: Any = None) -> TrainingLoop | None:
 
 
 def _run_stages(cfg: DictConfig, env: Any) -> TrainingLoop | None:
-    say = print if distributed.rank() == 0 else (lambda *args, **kwargs: None)
     if needs_flat_stage(cfg):
         check_config(cfg)  # before a long pre-training: the fine-tuning's config errors show now
         say("== stage 1/2: flat-ground pre-training", flush=True)
@@ -190,4 +192,4 @@ def main_argv() -> list[str]:
 
 
 __all__ = ["CPU_ENV_PRESET", "cpu_default_overrides", "main_argv", "make_logger", "parkour_arch_overrides",
-           "resume_dir_overrides", "run", "train_stage"]
+           "resume_dir_overrides", "run", "say", "train_stage"]
