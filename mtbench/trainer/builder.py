@@ -254,12 +254,13 @@ def build_trainer(
         env = build_env(cfg, device)
     else:
         warn_if_cpu_run_too_big(device, int(env.batch_size.numel()), int(cfg.loss.horizon))
+    # the run's frames per iteration (torchrun: every rank's)
+    frames_per_batch = int(env.batch_size.numel()) * int(cfg.loss.horizon) * distributed.world_size()
     if off_policy:
         trainer: TrainingLoop = build_sac_trainer(
             cfg, env, device, hooks=build_hooks(cfg, logger),
             update_module_factory=lambda loss, k: build_gradient_method(cfg.get("grad"), loss, k),
-            total_iterations=total_iterations(
-                cfg, int(env.batch_size.numel()) * int(cfg.loss.horizon) * distributed.world_size()),
+            total_iterations=total_iterations(cfg, frames_per_batch),
         )
         if resumed is not None:
             trainer.load_state_dict(resumed, source=str(cfg.resume))
@@ -270,8 +271,7 @@ def build_trainer(
     actor, critic = build_networks(cfg, env, device)
     num_tasks = int(base_env(env).num_tasks)
     loss = build_loss(cfg.loss, actor, critic, num_tasks, device)
-    with torch.no_grad():  # torchrun: every rank starts from rank 0's networks
-        distributed.broadcast_([t.data for t in (*loss.parameters(), *loss.buffers())])
+    distributed.broadcast_module_(loss)  # torchrun: every rank starts from rank 0's networks
     update_module = build_gradient_method(cfg.get("grad"), loss, num_tasks)
     graph_update = resolve_graph_update(cfg.get("cudagraph_update", "auto"), device,
                                         graph_safe_update(update_module, loss))
@@ -282,7 +282,6 @@ def build_trainer(
             # compiled backward with donated buffers refuses ("compiled with non-empty donated buffers")
             torch._functorch.config.donated_buffer = False
         compile_networks(actor, critic, cfg.get("compile_mode") or None)
-    frames_per_batch = int(env.batch_size.numel()) * int(cfg.loss.horizon) * distributed.world_size()
     max_grad_norm = cfg.loss.get("max_grad_norm")
     trainer = Trainer(
         env,

@@ -78,14 +78,12 @@ def share_run_paths(cfg: DictConfig) -> None:
     clocks and Hydra directories may differ); rank ``r > 0`` checkpoints into ``checkpoint.dir/rank<r>``."""
     if not distributed.is_active():
         return
-    import torch.distributed as dist
-
-    paths: list[Any] = [str(cfg.logging.exp_name), str(cfg.logging.log_dir), str(cfg.checkpoint.dir)]
-    dist.broadcast_object_list(paths, src=0)
+    exp_name, log_dir, checkpoint_dir = distributed.broadcast_object(
+        (str(cfg.logging.exp_name), str(cfg.logging.log_dir), str(cfg.checkpoint.dir)))
     r = distributed.rank()
     with open_dict(cfg):
-        cfg.logging.exp_name, cfg.logging.log_dir = paths[0], paths[1]
-        cfg.checkpoint.dir = str(Path(paths[2]) / f"rank{r}") if r else paths[2]
+        cfg.logging.exp_name, cfg.logging.log_dir = exp_name, log_dir
+        cfg.checkpoint.dir = str(Path(checkpoint_dir) / f"rank{r}") if r else checkpoint_dir
 
 
 def rank_env_config(env_cfg: Any) -> Any:

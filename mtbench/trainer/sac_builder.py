@@ -127,8 +127,7 @@ def build_sac_trainer(
     actor, qvalues = build_sac_networks(cfg, env, device)
     num_tasks = int(base_env(env).num_tasks)
     loss = build_sac_loss(lc, actor, qvalues, num_tasks, int(env.action_spec.shape[-1]), device)
-    with torch.no_grad():  # torchrun: every rank starts from rank 0's networks (and target networks)
-        distributed.broadcast_([t.data for t in (*loss.parameters(), *loss.buffers())])
+    distributed.broadcast_module_(loss)  # torchrun: every rank starts from rank 0's networks (and target networks)
     ranks = distributed.world_size()  # torchrun: each rank replays its share of every batch from its own buffer
     target_update = SoftUpdate(loss, tau=float(lc["critic_tau"]))
     max_grad_norm = lc.get("max_grad_norm")

@@ -20,6 +20,7 @@ from typing import Any, Mapping, Sequence
 
 import torch
 import torch.distributed as dist
+from torch import nn
 
 _ACTIVE = False
 #: keys of the episode statistics that are maxima, not sums (``EpisodeStatsWindow``: the highest terrain level)
@@ -135,6 +136,13 @@ def broadcast_(tensors: Sequence[torch.Tensor], src: int = 0) -> None:
         dist.broadcast(t, src=src)
 
 
+def broadcast_module_(module: nn.Module, src: int = 0) -> None:
+    """Overwrite every parameter and buffer of ``module`` with rank ``src``'s (a no-op without a group): the ranks
+    start from the same networks."""
+    with torch.no_grad():
+        broadcast_([t.data for t in (*module.parameters(), *module.buffers())], src=src)
+
+
 def broadcast_object(obj: Any, src: int = 0) -> Any:
     """Rank ``src``'s ``obj`` (picklable) on every rank (``obj`` itself without a group)."""
     if not _ACTIVE:
@@ -168,6 +176,7 @@ __all__ = [
     "any_rank",
     "barrier",
     "broadcast_",
+    "broadcast_module_",
     "broadcast_object",
     "context_from_environment",
     "init_process_group",
