@@ -3,11 +3,14 @@
     python benchmarks/ddp_scaling.py --nproc 1 2 4 -- env=mt10_rand loss=ppo            # one host with 4 GPUs
     python benchmarks/ddp_scaling.py --nproc 1 2 4 -- env=mt50_rand loss=ppo arch=moore
     python benchmarks/ddp_scaling.py --nproc 1 2 --iters 12 -- device=cpu env=cpu_small   # a CPU check (gloo)
+    python benchmarks/ddp_scaling.py --nproc 1 2 --weak -- env=mt10_rand env.num_envs=24576 loss.minibatch_size=16384
 
 Each process count runs ``examples/train.py`` (``torchrun --nproc_per_node N`` for N > 1) for ``--iters`` iterations
-with the given overrides (the run's totals: ``env.num_envs`` worlds in all, split over the processes), no logger and
-no checkpoint, and reads the frames/s that the trainer prints per iteration (all processes' frames; collection and
-update, the iteration's own timing). The figure is the median over the second half of the iterations (the first
+with the given overrides, no logger and no checkpoint. By default the overrides are the run's totals
+(``env.num_envs`` worlds in all, split over the processes: strong scaling); with ``--weak`` the given
+``env.num_envs`` and ``loss.minibatch_size`` are each process's share and are multiplied by the process count (every
+process keeps one process's work: weak scaling, how runs grow with more GPUs). The script reads the frames/s that
+the trainer prints per iteration (all processes' frames; collection and update, the iteration's own timing). The figure is the median over the second half of the iterations (the first
 half holds graph captures and compilation). Printed: frames/s per process count and its ratio to one process.
 """
 
@@ -23,6 +26,23 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 FPS = re.compile(r"^\[iter\s+\d+/\d+\] frames=[\d,]+ fps=([\d,]+)", re.MULTILINE)
+
+
+WEAK_KEYS = ("env.num_envs", "loss.minibatch_size")
+
+
+def scale_overrides(overrides: list[str], nproc: int) -> list[str]:
+    """``overrides`` with ``env.num_envs`` and ``loss.minibatch_size`` multiplied by ``nproc`` (``--weak``)."""
+    values = {o.split("=", 1)[0]: o.split("=", 1)[1] for o in overrides if "=" in o}
+    missing = [k for k in WEAK_KEYS if k not in values]
+    if missing:
+        raise SystemExit(f"--weak needs the per-process sizes among the overrides; missing: {missing} "
+                         f"(e.g. env.num_envs=24576 loss.minibatch_size=16384)")
+    scaled = []
+    for o in overrides:
+        key = o.split("=", 1)[0]
+        scaled.append(f"{key}={int(values[key]) * nproc}" if key in WEAK_KEYS else o)
+    return scaled
 
 
 def run(nproc: int, iters: int, overrides: list[str], workdir: Path) -> list[float]:
@@ -44,6 +64,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--nproc", type=int, nargs="+", default=[1, 2], help="process counts to run")
     parser.add_argument("--iters", type=int, default=30, help="iterations per run (the second half is timed)")
+    parser.add_argument("--weak", action="store_true",
+                        help="env.num_envs and loss.minibatch_size are per process (multiplied by the process count)")
     parser.add_argument("overrides", nargs="*", help="examples/train.py overrides (after --)")
     args = parser.parse_args()
     if any(n < 1 for n in args.nproc):
@@ -53,7 +75,8 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.nproc:
-            fps = run(n, args.iters, list(args.overrides), Path(tmp))
+            overrides = scale_overrides(list(args.overrides), n) if args.weak else list(args.overrides)
+            fps = run(n, args.iters, overrides, Path(tmp))
             timed = fps[len(fps) // 2:]
             if not timed:
                 raise SystemExit(f"{n} processes: no per-iteration frames/s in the output")

@@ -269,6 +269,59 @@ def test_peng_q_lambda_equals_stock_td_lambda_on_the_greedy_value() -> None:
     torch.testing.assert_close(ours(rollout.clone())["value_target"], expected)
 
 
+def test_per_task_value_normalisation_targets_and_statistics() -> None:
+    """With normalize_value the network's greedy values are de-normalised per task, the targets are computed in the
+    reward's scale (the plain estimator's targets on the de-normalised values), the task's statistics are updated
+    with its own targets only, and the written targets are normalised with the updated statistics."""
+    g = torch.Generator().manual_seed(3)
+    n, t = 6, 5
+    v = torch.randn(n, t + 1, generator=g)
+    term = torch.rand(n, t, 1, generator=g) < 0.2
+    trunc = (torch.rand(n, t, 1, generator=g) < 0.2) & ~term
+    task = torch.tensor([0, 0, 1, 1, 2, 2])[:, None].expand(n, t)
+    obs = torch.stack([v, torch.zeros_like(v)], -1)
+    reward = 10.0 * torch.randn(n, t, 1, generator=g) + 3.0 * task[..., None]
+    rollout = TensorDict({"observation": obs[:, :-1], "task_id": task.clone(),
+                          "next": {"observation": obs[:, 1:], "reward": reward, "done": term | trunc,
+                                   "terminated": term, "truncated": trunc}}, [n, t])
+    est = PengQLambda(gamma=0.9, lmbda=0.5, value_network=_q_module(), num_tasks=3, normalize_value=True)
+    mean0, std0 = torch.tensor([1.0, -2.0, 5.0]), torch.tensor([2.0, 0.5, 4.0])
+    est.value_norm.mean.copy_(mean0[:, None].double())
+    est.value_norm.var.copy_((std0[:, None] ** 2 - 1e-5).double())
+    est.value_norm.count.fill_(100.0)
+    out = est(rollout.clone())["value_target"]
+
+    # the same rollout with the de-normalised values in feature 0, through the plain estimator
+    raw = rollout.clone()
+    scale, shift = std0[task], mean0[task]
+    raw["observation"][..., 0] = v[:, :-1] * scale + shift
+    raw["next", "observation"][..., 0] = v[:, 1:] * scale + shift
+    targets = PengQLambda(gamma=0.9, lmbda=0.5, value_network=_q_module())(raw)["value_target"]
+    for k in range(3):
+        x = targets[task == k].double()
+        n_a, n_b = 100.0, x.numel()
+        mean_b, var_b = x.mean(), x.var(unbiased=False)
+        delta = mean_b - mean0[k].double()
+        mean = mean0[k].double() + delta * n_b / (n_a + n_b)
+        var = ((std0[k].double() ** 2 - 1e-5) * n_a + var_b * n_b + delta ** 2 * n_a * n_b / (n_a + n_b)) / (n_a + n_b)
+        torch.testing.assert_close(est.value_norm.mean[k, 0], mean)
+        torch.testing.assert_close(est.value_norm.var[k, 0], var)
+        torch.testing.assert_close(out[task == k], ((x - mean) / (var + 1e-5).sqrt()).float())
+    assert torch.isfinite(out).all()
+
+
+def test_value_normalisation_is_in_the_loss_state_and_needs_num_tasks() -> None:
+    loss = MTPQNLoss(_q_module(), num_tasks=4, normalize_value=True)
+    assert loss.value_estimator.value_norm.num_tasks == 4
+    state = loss.state_dict()
+    assert {"_value_estimator.value_norm.mean", "_value_estimator.value_norm.var",
+            "_value_estimator.value_norm.count"} <= set(state)
+    assert "task_id" in loss.value_estimator.in_keys
+    assert MTPQNLoss(_q_module()).value_estimator.value_norm is None
+    with pytest.raises(ValueError, match="normalize_value=True needs num_tasks"):
+        MTPQNLoss(_q_module(), normalize_value=True)
+
+
 # ------------------------------------------------------------------------------------------ loss
 def test_loss_is_the_squared_error_of_the_mean_chosen_utility() -> None:
     torch.manual_seed(0)
@@ -588,7 +641,8 @@ class StopAt(TrainerHook):
 
 
 @pytest.mark.parametrize("mtbench", [(), ("loss.hold_observation=true", "loss.epsilon_clock=mtbench"),
-                                     ("loss.hold_observation=true", "loss.hold_period=2")])
+                                     ("loss.hold_observation=true", "loss.hold_period=2"),
+                                     ("loss.normalize_value=true",)])
 def test_resume_is_exact_between_iterations_and_inside_a_rollout(tmp_path: Path, mtbench: tuple[str, ...]) -> None:
     """Also with MTBench's held observation (restored from the interrupted rollout's first step) and epsilon clock
     (inside a rollout only: the part the held observation changes)."""
@@ -597,6 +651,8 @@ def test_resume_is_exact_between_iterations_and_inside_a_rollout(tmp_path: Path,
 
     full = build_trainer(cfg("checkpoint.every=2", f"checkpoint.dir={tmp_path / 'full'}"), env=_env())
     full_history = full.train()
+    if "loss.normalize_value=true" in mtbench:  # the per-task value statistics are part of the resumed state
+        assert float(full.loss.value_estimator.value_norm.count.min()) > 0
     if not mtbench:
         resumed = build_trainer(cfg(f"resume={tmp_path / 'full' / 'ckpt_000002.pt'}"), env=_env())
         assert resumed.get_hook(EpsilonSchedule).epsilon == full_history[1]["train/epsilon"]
@@ -763,6 +819,7 @@ def test_cudagraph_update_resolves_for_pqn(tmp_path: Path) -> None:
         ("loss.anneal_lr=maybe", "loss.anneal_lr must be true or false"),
         ("loss.epsilon_clock=steps", r"unknown loss.epsilon_clock 'steps'; valid choices: \['frames', 'mtbench'\]"),
         ("loss.hold_observation=maybe", "loss.hold_observation must be true or false"),
+        ("loss.normalize_value=maybe", "loss.normalize_value must be true or false"),
         ("loss.hold_period=9", r"loss.hold_period must be an integer in \[1, loss.horizon=8\] or null \(the whole "
                                r"rollout\); got 9"),
         ("loss.hold_period=0", r"loss.hold_period must be an integer in \[1, loss.horizon=8\]"),

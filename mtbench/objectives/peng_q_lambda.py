@@ -11,7 +11,8 @@ from tensordict.utils import NestedKey
 from torchrl.objectives.value import ValueEstimatorBase
 
 from ..modules.q_network import greedy_value
-from .per_task_gae import last_next_inputs, rollout_time_dim
+from ..transforms.running_mean_std import PerTaskRunningMeanStd
+from .per_task_gae import last_next_inputs, rollout_time_dim, task_ids
 
 
 def peng_q_lambda(
@@ -75,19 +76,31 @@ class PengQLambda(ValueEstimatorBase):
       ``GAE(auto_reset_env=True)`` (rl_games' ``value_bootstrap``); the trace is cut there;
     * on a terminated step (or a done step that is not truncated) there is no bootstrap.
 
+    With ``normalize_value`` the Q network predicts per-task *normalised* values (as MT-PPO's critic does with
+    :class:`~mtbench.objectives.PerTaskGAE`): the greedy values are de-normalised with the task's running statistics
+    (:attr:`value_norm`), the targets are computed in the reward's scale, the statistics are updated with them, and
+    ``value_target`` is written normalised with the updated statistics. A positive affine map per task leaves each
+    task's greedy actions unchanged; what changes is the weight of each task in the regression (without it the tasks
+    whose returns are largest dominate the loss). The statistics are buffers of this estimator, hence part of the
+    owning loss's ``state_dict`` (``_value_estimator.value_norm.*``).
+
     Args:
         gamma: discount (0.99).
         lmbda: Peng's lambda (0.5).
         value_network: the Q network (writes ``action_value [..., A, bins]``), e.g.
             :func:`~mtbench.modules.make_q_network`.
-        device: unused (no buffers); accepted like every TorchRL estimator.
+        num_tasks: K (needed with ``normalize_value``).
+        normalize_value: per-task value normalisation (MTBench's PQN: off).
+        value_norm_eps: variance epsilon of the statistics (rl_games: 1e-5).
+        device: device of the statistics.
     """
 
     @dataclass
     class _AcceptedKeys:
         """The keys of :class:`ValueEstimatorBase` (repeated: TorchRL's ``set_keys`` accepts only a class's own
         fields; ``advantage`` and ``value`` are not written) plus ``truncated`` (``("next", truncated)``: bootstrap
-        on time limits) and ``action_value`` (the Q network's ``[..., A, bins]`` output)."""
+        on time limits), ``action_value`` (the Q network's ``[..., A, bins]`` output) and ``task_id`` (the per-task
+        statistics of ``normalize_value``)."""
 
         advantage: NestedKey = "advantage"
         value_target: NestedKey = "value_target"
@@ -99,6 +112,7 @@ class PengQLambda(ValueEstimatorBase):
         sample_log_prob: NestedKey = "action_log_prob"
         truncated: NestedKey = "truncated"
         action_value: NestedKey = "action_value"
+        task_id: NestedKey = "task_id"
 
     default_keys = _AcceptedKeys
     tensor_keys: _AcceptedKeys
@@ -109,10 +123,15 @@ class PengQLambda(ValueEstimatorBase):
         gamma: float,
         lmbda: float,
         value_network: TensorDictModule,
+        num_tasks: int | None = None,
+        normalize_value: bool = False,
+        value_norm_eps: float = 1e-5,
         device: torch.device | str | None = None,
     ) -> None:
         if value_network is None:
             raise ValueError("PengQLambda needs the Q network as value_network")
+        if normalize_value and not (isinstance(num_tasks, int) and num_tasks >= 1):
+            raise ValueError(f"normalize_value=True needs num_tasks (an integer >= 1); got {num_tasks!r}")
         if not 0.0 <= float(lmbda) <= 1.0:
             raise ValueError(f"lmbda must be in [0, 1]; got {lmbda}")
         if not 0.0 < float(gamma) <= 1.0:
@@ -120,6 +139,9 @@ class PengQLambda(ValueEstimatorBase):
         super().__init__(value_network=value_network, device=device)
         self.gamma = float(gamma)
         self.lmbda = float(lmbda)
+        self.value_norm: PerTaskRunningMeanStd | None = (
+            PerTaskRunningMeanStd(int(num_tasks), 1, eps=value_norm_eps, device=device) if normalize_value else None
+        )
 
     @property
     def in_keys(self) -> list[NestedKey]:
@@ -127,6 +149,8 @@ class PengQLambda(ValueEstimatorBase):
         keys = list(self.value_network.in_keys)
         keys += [("next", k.reward), ("next", k.done), ("next", k.terminated), ("next", k.truncated)]
         keys += [("next", key) for key in self.value_network.in_keys]
+        if self.value_norm is not None:
+            keys.append(k.task_id)
         return list(dict.fromkeys(keys))
 
     @property
@@ -166,9 +190,16 @@ class PengQLambda(ValueEstimatorBase):
         truncated = next_td.get(keys.truncated, torch.zeros_like(done))
         terminated = next_td.get(keys.terminated)
         no_bootstrap = terminated | (done & ~truncated)
+        if self.value_norm is not None:  # the network's values are per-task normalised: back to the reward's scale
+            task_id = task_ids(tensordict, keys.task_id)
+            values = self.value_norm.denormalize(values, task_id)
+            next_values = self.value_norm.denormalize(next_values, task_id)
         bootstrap = torch.where(truncated & ~terminated, values, next_values)
         target = peng_q_lambda(next_td.get(keys.reward), bootstrap, done, no_bootstrap, self.gamma, self.lmbda,
                                time_dim=tdim)
+        if self.value_norm is not None:
+            self.value_norm.update(target, task_id)
+            target = self.value_norm.normalize(target, task_id).to(values.dtype)
         tensordict.set(keys.value_target, target)
         return tensordict
 

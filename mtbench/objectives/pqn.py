@@ -49,6 +49,10 @@ class MTPQNLoss(LossModule):
         gamma, lmbda: Peng's Q(lambda) parameters of the default estimator (0.99, 0.5).
         loss_function: ``"l2"`` (MTBench: MSE), ``"l1"`` or ``"smooth_l1"``.
         reduction: ``"mean"`` (default), ``"sum"`` or ``"none"`` (per-sample ``loss_qvalue``).
+        num_tasks, normalize_value: per-task value normalisation of the default estimator (off, as MTBench's PQN):
+            the Q network predicts per-task normalised values, the targets are normalised with the task's running
+            statistics (:class:`~mtbench.objectives.peng_q_lambda.PengQLambda`); ``q_value``, ``target_value`` and
+            ``td_error`` are then in that normalised scale.
     """
 
     @dataclass
@@ -86,6 +90,8 @@ class MTPQNLoss(LossModule):
         lmbda: float = 0.5,
         loss_function: str = "l2",
         reduction: str = "mean",
+        num_tasks: int | None = None,
+        normalize_value: bool = False,
     ) -> None:
         if reduction not in _VALID_REDUCTIONS:
             raise ValueError(f"unknown reduction {reduction!r}; valid choices: {list(_VALID_REDUCTIONS)}")
@@ -101,6 +107,8 @@ class MTPQNLoss(LossModule):
         self.lmbda = float(lmbda)
         self.loss_function = loss_function
         self.reduction = reduction
+        self.num_tasks = num_tasks
+        self.normalize_value = bool(normalize_value)
         self.tensor_keys.action_value = value_network.out_keys[0]
         self.make_value_estimator()
 
@@ -129,10 +137,12 @@ class MTPQNLoss(LossModule):
 
     def make_value_estimator(self, value_type: Any = None, **hyperparams: Any) -> MTPQNLoss:
         """``None``: :class:`~mtbench.objectives.peng_q_lambda.PengQLambda` (``hyperparams`` override ``gamma`` /
-        ``lmbda``); a ``ValueEstimatorBase`` instance or subclass is used as TorchRL does. The loss's keys are
-        forwarded to the estimator."""
+        ``lmbda`` / ``num_tasks`` / ``normalize_value``); a ``ValueEstimatorBase`` instance or subclass is used as
+        TorchRL does. The loss's keys are forwarded to the estimator."""
         if value_type is None:
-            kwargs: dict[str, Any] = dict(gamma=self.gamma, lmbda=self.lmbda, **hyperparams)
+            kwargs: dict[str, Any] = dict(gamma=self.gamma, lmbda=self.lmbda, num_tasks=self.num_tasks,
+                                          normalize_value=self.normalize_value)
+            kwargs.update(hyperparams)
             self._value_estimator = PengQLambda(value_network=self.value_network, **kwargs)
             self.value_type = PengQLambda
         elif isinstance(value_type, ValueEstimatorBase) or (

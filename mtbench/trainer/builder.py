@@ -116,7 +116,7 @@ def build_loss(loss_cfg: Mapping[str, Any], actor: nn.Module, critic: nn.Module 
     config's hyperparameters."""
     lc = loss_cfg
     if lc["name"] == "pqn":
-        return build_pqn_loss(lc, actor, device)
+        return build_pqn_loss(lc, actor, num_tasks, device)
     common = dict(num_tasks=num_tasks, clip_epsilon=float(lc["clip_epsilon"]), entropy_coeff=float(lc["entropy_coeff"]),
                   bounds_coeff=float(lc["bounds_coeff"]), soft_bound=float(lc["soft_bound"]), gamma=float(lc["gamma"]))
     if lc["name"] == "grpo":

@@ -58,6 +58,8 @@ def check_pqn_config(lc: Mapping[str, Any]) -> None:
                                    and isinstance(horizon, int) and 1 <= period <= horizon):
         raise ValueError(f"loss.hold_period must be an integer in [1, loss.horizon={horizon}] or null (the whole "
                          f"rollout); got {period!r}")
+    if not isinstance(lc.get("normalize_value", False), bool):
+        raise ValueError(f"loss.normalize_value must be true or false; got {lc.get('normalize_value')!r}")
     if not isinstance(lc.get("anneal_lr"), bool):
         raise ValueError(f"loss.anneal_lr must be true or false; got {lc.get('anneal_lr')!r}")
     if lc.get("loss_function") not in LOSS_FUNCTIONS:
@@ -101,10 +103,13 @@ def q_network(policy: TensorDictSequential) -> TensorDictModule:
     return policy[0]
 
 
-def build_pqn_loss(loss_cfg: Mapping[str, Any], policy: TensorDictSequential, device: torch.device) -> MTPQNLoss:
-    """``MTPQNLoss`` (Peng's Q(lambda) estimator) on the policy's Q network."""
+def build_pqn_loss(loss_cfg: Mapping[str, Any], policy: TensorDictSequential, num_tasks: int,
+                   device: torch.device) -> MTPQNLoss:
+    """``MTPQNLoss`` (Peng's Q(lambda) estimator; per-task value normalisation with ``loss.normalize_value``) on
+    the policy's Q network."""
     return MTPQNLoss(q_network(policy), gamma=float(loss_cfg["gamma"]), lmbda=float(loss_cfg["lmbda"]),
-                     loss_function=str(loss_cfg["loss_function"])).to(device)
+                     loss_function=str(loss_cfg["loss_function"]), num_tasks=num_tasks,
+                     normalize_value=bool(loss_cfg.get("normalize_value", False))).to(device)
 
 
 def build_radam(loss: MTPQNLoss, loss_cfg: Mapping[str, Any], device: torch.device) -> RAdam:
