@@ -10,8 +10,9 @@ with the given overrides, no logger and no checkpoint. By default the overrides 
 (``env.num_envs`` worlds in all, split over the processes: strong scaling); with ``--weak`` the given
 ``env.num_envs`` and ``loss.minibatch_size`` are each process's share and are multiplied by the process count (every
 process keeps one process's work: weak scaling, how runs grow with more GPUs). The script reads the frames/s that
-the trainer prints per iteration (all processes' frames; collection and update, the iteration's own timing). The figure is the median over the second half of the iterations (the first
-half holds graph captures and compilation). Printed: frames/s per process count and its ratio to one process.
+the trainer prints per iteration (all processes' frames; collection and update, the iteration's own timing). The
+figure is the median over the second half of the iterations (the first half holds graph captures and compilation).
+Printed: frames/s per process count and its ratio to one process.
 """
 
 from __future__ import annotations
