@@ -199,7 +199,7 @@ class PengQLambda(ValueEstimatorBase):
                                time_dim=tdim)
         if self.value_norm is not None:
             self.value_norm.update(target, task_id)
-            target = self.value_norm.normalize(target, task_id).to(values.dtype)
+            target = self.value_norm.normalize(target, task_id)
         tensordict.set(keys.value_target, target)
         return tensordict
 

@@ -4,7 +4,6 @@ per-task success table."""
 from __future__ import annotations
 
 import math
-import os
 import sys
 from pathlib import Path
 from typing import Any, Sequence
@@ -181,7 +180,8 @@ def main_argv() -> list[str]:
     """``sys.argv`` with :func:`parkour_arch_overrides` applied, plus :func:`cpu_default_overrides` and
     :func:`resume_dir_overrides` (called by ``examples/train.py`` before Hydra parses)."""
     args, note = parkour_arch_overrides(sys.argv[1:])
-    if note is not None and os.environ.get("RANK", "0") == "0":  # torchrun: one process prints
+    context = distributed.context_from_environment()  # before the process group: torchrun's variables
+    if note is not None and (context is None or context.is_main):  # torchrun: one process prints
         print(note, flush=True)
     overrides = [*args, *cpu_default_overrides(args), *resume_dir_overrides(args)]
     # Hydra's argument parser takes the overrides as one run of positional arguments: keep its flags
