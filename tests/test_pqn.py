@@ -33,6 +33,7 @@ from mtbench.envs import DiscreteActions, bin_values, make_env
 from mtbench.envs.metaworld import MetaWorldEnv
 from mtbench.modules import decomposed_q_value, greedy_value, make_q_network, make_q_policy
 from mtbench.objectives import MTPQNLoss, PengQLambda, compute_gradients, make_gradient_method, peng_q_lambda
+from mtbench.paper.rows import compose_row
 from mtbench.trainer import EpsilonSchedule, LinearLRDecay, NonFiniteGuard, TrainerHook, build_trainer
 from mtbench.trainer.hooks.schedules import linear_epsilon
 from mtbench.trainer.skip_found_inf import RAdam
@@ -481,33 +482,49 @@ def test_radam_skips_a_step_on_found_inf_exactly(monkeypatch: pytest.MonkeyPatch
 # ------------------------------------------------------------------------------------------ build_trainer
 def _cfg(tmp_path: Path, *overrides: str):
     """tests/test_trainer.py's small CPU run (2 epochs of 48-sample minibatches over 8-step rollouts, 4 iterations)
-    with loss=pqn and epsilon annealed over half of it; per-step observations and the frames clock unless
-    ``overrides`` set ``loss.hold_observation`` / ``loss.epsilon_clock`` (the MT10 sizes turn MTBench's on)."""
-    defaults = [d for d in ("loss.hold_observation=false", "loss.epsilon_clock=frames")
-                if not any(o.startswith(d.split("=")[0] + "=") for o in overrides)]
+    with loss=pqn and epsilon annealed over half of it; per-step observations, the frames clock and the paper's
+    lambda, epsilon floor and unnormalised inputs and values (the known answers below are computed by hand from
+    those) unless ``overrides`` set them."""
+    pinned = ("loss.hold_observation=false", "loss.epsilon_clock=frames", "loss.lmbda=0.5", "loss.end_epsilon=0.005",
+              "loss.normalize_input=false", "loss.normalize_value=false")
+    defaults = [d for d in pinned if not any(o.startswith(d.split("=")[0] + "=") for o in overrides)]
     return trainer_cfg(tmp_path, "loss=pqn", "loss.exploration_fraction=0.5", *defaults, *overrides)
 
 
-def test_pqn_configs_compose_with_the_paper_sizes() -> None:
+def test_pqn_configs_compose_with_the_measured_recipe_and_the_paper_row() -> None:
     with initialize_config_dir(config_dir=CONF, version_base="1.3"):
         mt10 = compose("config", overrides=["env=mt10_rand", "loss=pqn"])
         small = compose("config", overrides=["env=cpu_small", "loss=pqn"])
+    paper = compose_row("efficiency", "mt10_rand_pqn")
+    # env=mt10_rand loss=pqn: the measured recipe (docs/results/off_policy_mt10.md "Ninth runs")
     lc = mt10.loss
-    assert (mt10.env.num_envs, lc.horizon, lc.epochs, lc.minibatch_size, mt10.max_iterations) == (8192, 16, 8, 32768,
-                                                                                                   50_000)
-    assert (lc.lr, lc.max_grad_norm, lc.gamma, lc.lmbda, lc.bins_per_dim) == (3e-4, 10.0, 0.99, 0.5, 3)
-    assert (lc.start_epsilon, lc.end_epsilon, lc.exploration_fraction, lc.anneal_lr) == (1.0, 0.005, 0.005, True)
-    assert dict(mt10.env.overrides) == {"reward_version": "paper", "episode_length": 500, "action_scale": 0.005,
-                                        "compile_stages": "auto", "group_models": False}  # conf/env/mt10_rand
-    assert mt10.env.num_envs * lc.horizon // lc.minibatch_size == 4
-    assert (lc.hold_observation, lc.epsilon_clock) == (True, "mtbench")  # MTBench's code (docs/pqn.md)
+    assert (mt10.env.num_envs, lc.horizon, lc.epochs, lc.minibatch_size, mt10.max_iterations) == (24576, 16, 8, 32768,
+                                                                                                   1200)
+    assert mt10.env.num_envs * lc.horizon * mt10.max_iterations == 471_859_200
+    assert (lc.lr, lc.max_grad_norm, lc.gamma, lc.lmbda, lc.bins_per_dim) == (3e-4, 10.0, 0.95, 0.9, 3)
+    assert (lc.start_epsilon, lc.end_epsilon, lc.exploration_fraction, lc.anneal_lr) == (1.0, 0.05, 0.1, True)
+    assert (lc.hold_observation, lc.epsilon_clock, lc.normalize_input, lc.normalize_value) == (False, "frames", True,
+                                                                                               True)
+    assert dict(mt10.env.overrides) == {"reward_version": "paper", "compile_stages": "auto", "group_models": False}
+    # the paper's row (appendix "MT-PQN in MT10" + MTBench's code): every setting explicit, none from the recipe
+    pl = paper.loss
+    assert (paper.env.num_envs, pl.horizon, pl.epochs, pl.minibatch_size, paper.total_frames) == (8192, 16, 8, 32768,
+                                                                                                  6_553_600_000)
+    assert (pl.lr, pl.max_grad_norm, pl.gamma, pl.lmbda, pl.bins_per_dim) == (3e-4, 10.0, 0.99, 0.5, 3)
+    assert (pl.start_epsilon, pl.end_epsilon, pl.exploration_fraction, pl.anneal_lr) == (1.0, 0.005, 0.005, True)
+    assert (pl.hold_observation, pl.epsilon_clock, pl.normalize_input, pl.normalize_value) == (True, "mtbench", False,
+                                                                                               False)
+    assert dict(paper.env.overrides) == {"reward_version": "paper", "episode_length": 500, "action_scale": 0.005,
+                                         "compile_stages": "auto", "group_models": False}
+    assert paper.env.num_envs * pl.horizon // pl.minibatch_size == 4
     assert (small.loss.hold_observation, small.loss.epsilon_clock) == (False, "frames")
     assert small.env.num_envs * small.loss.horizon % small.loss.minibatch_size == 0 and small.max_iterations == 200
-    # the measured CPU preset (docs/pqn.md): 32 worlds per task x 8 steps, gamma 0.95, per-task input normalisation
+    # the measured CPU preset (docs/pqn.md): 32 worlds per task x 8 steps, gamma 0.95, per-task input and value
+    # normalisation
     sl = small.loss
     assert (small.env.num_envs, sl.horizon, sl.minibatch_size, sl.epochs) == (96, 8, 192, 8)
-    assert (sl.gamma, sl.lr, sl.lmbda, sl.end_epsilon, sl.exploration_fraction, sl.normalize_input) == (
-        0.95, 3e-3, 0.9, 0.05, 0.1, True)
+    assert (sl.gamma, sl.lr, sl.lmbda, sl.end_epsilon, sl.exploration_fraction, sl.normalize_input,
+            sl.normalize_value) == (0.95, 3e-3, 0.9, 0.05, 0.1, True, True)
 
 
 def test_trainer_builds_the_q_policy_radam_and_schedules(tmp_path: Path) -> None:

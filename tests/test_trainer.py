@@ -3,10 +3,14 @@ iterations and in the middle of a rollout), checksummed checkpoints, NaN guard, 
 
 from __future__ import annotations
 
+import ctypes
+import io
 import math
 import os
 import signal
 import sys
+import threading
+import time
 import warnings
 from pathlib import Path
 from typing import Any
@@ -248,6 +252,81 @@ def test_sigterm_after_sigusr1_stops_after_the_env_step() -> None:
     assert stop()  # now after the current env step
     stop.request(signal.SIGUSR1, at_iteration_end=True)
     assert stop()  # a later SIGUSR1 does not postpone a pending stop
+
+
+class TakeOverInC(TrainerHook):
+    """During env step ``step`` of iteration ``iteration + 1``, sets ``signum``'s disposition to ignore through libc
+    (as a C library would: Python's ``signal.getsignal`` still reports the Python handler)."""
+
+    name = "take_over_in_c"
+
+    def __init__(self, iteration: int, step: int, signum: int) -> None:
+        self.iteration, self.step, self.signum = iteration, step, signum
+
+    def on_rollout_step(self, trainer: Any, step: int, horizon: int) -> None:
+        if trainer.iteration == self.iteration and step == self.step:
+            _ignore_in_c(self.signum)
+
+
+def _ignore_in_c(signum: int) -> None:
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.signal.restype = ctypes.c_void_p
+    libc.signal.argtypes = [ctypes.c_int, ctypes.c_void_p]
+    assert libc.signal(signum, 1) is not None  # 1 = SIG_IGN
+
+
+def _deliver(signum: int) -> None:
+    """Send ``signum`` to this process and give the interpreter a chance to run its Python handler."""
+    os.kill(os.getpid(), signum)
+    for _ in range(100):
+        time.sleep(0.001)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGUSR1") or sys.platform != "linux", reason="POSIX signals, glibc")
+def test_stop_request_rearms_a_signal_taken_over_in_c_or_in_python_or_blocked() -> None:
+    from mtbench.trainer import StopRequest
+
+    usr1 = signal.SIGUSR1
+    before = signal.getsignal(usr1)
+    stream = io.StringIO()
+    with StopRequest(stream=stream) as stop:
+        assert stop.rearm() == []  # nothing changed: nothing said
+        _ignore_in_c(usr1)
+        _deliver(usr1)
+        assert not stop.requested  # the problem: deaf to the signal, and getsignal cannot tell
+        assert stop.rearm() == []
+        _deliver(usr1)
+        assert stop.requested and stop.at_iteration_end
+        stop.requested = stop.at_iteration_end = False
+        signal.signal(usr1, signal.SIG_IGN)
+        assert stop.rearm() == ["SIGUSR1 handler was <Handlers.SIG_IGN: 1>"]
+        _deliver(usr1)
+        assert stop.requested
+        stop.requested = stop.at_iteration_end = False
+        signal.pthread_sigmask(signal.SIG_BLOCK, [usr1])
+        signal.pthread_kill(threading.main_thread().ident, usr1)  # to this thread, which blocks it
+        for _ in range(100):
+            time.sleep(0.001)
+        assert not stop.requested  # pending
+        assert stop.rearm() == ["SIGUSR1 was blocked"]
+        for _ in range(100):
+            time.sleep(0.001)
+        assert stop.requested and usr1 not in signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    assert signal.getsignal(usr1) is before
+    assert "stop signals re-armed (SIGUSR1 handler was <Handlers.SIG_IGN: 1>)" in stream.getvalue()
+    assert stop.rearm() == []  # outside the with block: nothing to re-arm
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGUSR1") or sys.platform != "linux", reason="POSIX signals, glibc")
+def test_sigusr1_is_obeyed_after_a_library_took_it_over_in_an_earlier_iteration(tmp_path: Path) -> None:
+    """A C-level takeover during iteration 1 (where a fresh kernel compilation would happen), the signal during
+    iteration 2: the trainer re-armed its handlers between the two and stops at the end of iteration 2."""
+    stopped = build_trainer(_cfg(tmp_path, "max_iterations=4"), env=_env())
+    stopped.add_hook(TakeOverInC(iteration=0, step=1, signum=signal.SIGUSR1))
+    stopped.add_hook(StopAt(iteration=1, step=3, signum=signal.SIGUSR1))
+    history = stopped.train()
+    assert len(history) == 2 and stopped.iteration == 2 and stopped.rollout.steps_done == 0
+    assert (tmp_path / "ckpt" / "ckpt_000002.pt").is_file()
 
 
 def test_resume_refuses_a_different_configuration(tmp_path: Path) -> None:

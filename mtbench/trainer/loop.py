@@ -214,6 +214,7 @@ class TrainingLoop:
             try:
                 self._call("on_train_start")
                 while self.iteration < self.total_iterations and not self._stop_requested(stop):
+                    stop.rearm()
                     metrics = self.train_iteration()
                     if metrics is None:
                         break

@@ -37,12 +37,39 @@ class StopRequest:
 
     def __enter__(self) -> StopRequest:
         if threading.current_thread() is threading.main_thread():
-            signals = [signal.SIGINT, signal.SIGTERM]
-            if ITERATION_END_SIGNAL is not None:
-                signals.append(ITERATION_END_SIGNAL)
-            for sig in signals:
+            for sig in self._signals():
                 self._previous[sig] = signal.signal(sig, self._handle)
         return self
+
+    @staticmethod
+    def _signals() -> list[int]:
+        signals = [signal.SIGINT, signal.SIGTERM]
+        if ITERATION_END_SIGNAL is not None:
+            signals.append(ITERATION_END_SIGNAL)
+        return signals
+
+    def rearm(self) -> list[str]:
+        """Install the handlers again and unblock their signals in the main thread; returns what was found changed
+        (and says so on the stream). The trainer calls it between iterations: a library that takes over a signal
+        while the run builds or compiles something -- in C, where ``signal.getsignal`` cannot see it, or by blocking
+        the signal -- would otherwise leave the run deaf to it (seen on an H200: SIGUSR1 ignored by runs whose first
+        iteration compiled kernels afresh). Does nothing outside an active ``with`` block or the main thread."""
+        if not self._previous or threading.current_thread() is not threading.main_thread():
+            return []
+        changed = []
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, []) if hasattr(signal, "pthread_sigmask") else set()
+        for sig in self._previous:
+            name = signal.Signals(sig).name
+            handler = signal.getsignal(sig)
+            if handler != self._handle:
+                changed.append(f"{name} handler was {handler!r}")
+            if sig in blocked:
+                changed.append(f"{name} was blocked")
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, [sig])
+            signal.signal(sig, self._handle)  # also replaces a handler installed in C, invisible to getsignal
+        if changed:
+            print(f"stop signals re-armed ({'; '.join(changed)})", file=self.stream or sys.stderr, flush=True)
+        return changed
 
     def __exit__(
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
