@@ -20,7 +20,7 @@ from torchrl.data import Bounded
 from cpu_runs import train_on_cpu
 from envs_for_tests import SyntheticMTEnv
 from mtbench.evaluation import EvalArgumentError, evaluate, main, parse_args, run_episodes
-from mtbench.evaluation.run import video_schedule
+from mtbench.evaluation.run import check_task_slots, video_schedule
 from mtbench.evaluation.policy import eval_env_config, read_checkpoint
 from mtbench.evaluation.render import BACKGROUND, tile
 from mtbench.evaluation.video import contact_sheet, read_video, write_video
@@ -383,6 +383,32 @@ def test_bad_checkpoints_and_sizes_are_refused(checkpoint: Path, tmp_path: Path,
                 f"video_frames must be an integer in [1, {EPISODE_STEPS}]")
     assert expected in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_env_name_must_keep_a_metaworld_policys_task_slots(checkpoint: Path, tmp_path: Path) -> None:
+    """The one-hot slots of a Meta-World policy are its run's tasks in their order: the same tasks reordered (or
+    others) would give every task another one's slot, so they are refused with the valid choices; the same list, or
+    a setting with the same tasks, is evaluated."""
+    reordered = "env.name=[drawer_close,reach,button_press_topdown]"
+    with pytest.raises(EvalArgumentError, match=re.escape(
+            "env.name=['drawer_close', 'reach', 'button_press_topdown'] has the tasks ['drawer_close', 'reach', "
+            "'button_press_topdown'], but this Meta-World policy's task slots (its one-hot and per-task statistics) "
+            "are the 3 tasks of env.name=['reach', 'drawer_close', 'button_press_topdown'], in their order; valid "
+            "choices: [reach,drawer_close,button_press_topdown]")):
+        evaluate(parse_args([f"checkpoint={checkpoint}", reordered, "device=cpu"]), logger="none")
+    with pytest.raises(EvalArgumentError, match=r"^env.name=mt10 has the tasks \['button_press_topdown'"):
+        evaluate(parse_args([f"checkpoint={checkpoint}", "env.name=mt10", "device=cpu"]), logger="none")
+    report = evaluate(parse_args([f"checkpoint={checkpoint}", "env.name=[reach,drawer_close,button_press_topdown]",
+                                  "device=cpu", "episodes=1", "deterministic=true", f"out={tmp_path}"]), logger="none")
+    assert report.results[0].task_names == TASKS
+    check_task_slots("mt10_rand", "mt10")  # the same tasks in the same order: fine
+    check_task_slots("mt50", "mt50_rand")
+    check_task_slots("parkour_easy", ["flat"])  # Parkour keeps its 21 canonical slots for any terrains
+    with pytest.raises(EvalArgumentError, match=r"env.name=mt50 has 50 tasks, .* the 10 tasks of env.name=mt10_rand, "
+                                                r"in their order; valid choices: mt10 or mt10_rand or \[button"):
+        check_task_slots("mt10_rand", "mt50")
+    with pytest.raises(EvalArgumentError, match=r"^env.name=bogus: unknown Meta-World env name 'bogus'; valid "):
+        check_task_slots("mt10", "bogus")
 
 
 def test_passes_count_only_tasks_with_worlds() -> None:

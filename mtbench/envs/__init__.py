@@ -1,7 +1,7 @@
 """Batched TorchRL environments on MuJoCo Warp."""
 
 from .discrete_actions import DiscreteActions, bin_values
-from .make import METAWORLD_SETS, is_parkour, make_env, setting_names, split_envs
+from .make import METAWORLD_SETS, is_parkour, make_env, metaworld_tasks, setting_names, split_envs
 from .metaworld import MetaWorldEnv
 
 __all__ = [
@@ -11,6 +11,7 @@ __all__ = [
     "bin_values",
     "is_parkour",
     "make_env",
+    "metaworld_tasks",
     "setting_names",
     "split_envs",
 ]

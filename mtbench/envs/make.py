@@ -43,6 +43,24 @@ def setting_names() -> list[str]:
     return sorted(METAWORLD_SETS) + sorted(ALL_TASK_NAMES) + sorted(PARKOUR_SETTINGS) + sorted(PARKOUR_TERRAINS)
 
 
+def metaworld_tasks(name: str | Sequence[str]) -> list[str]:
+    """The Meta-World tasks of ``make_env(name)`` in the order of their task ids (``task_id``, one-hot slots): a set's
+    tasks in task-id order, ``[name]`` for one task, a list as given. Raises with the valid choices otherwise."""
+    if isinstance(name, str):
+        if name in METAWORLD_SETS:
+            return list(benchmark_tasks(METAWORLD_SETS[name][0]))
+        if name in ALL_TASK_NAMES:
+            return [name]
+        raise ValueError(f"unknown Meta-World env name {name!r}; valid choices: {sorted(METAWORLD_SETS)}, a task name "
+                         "or a list of task names")
+    tasks = list(name)
+    unknown = [t for t in tasks if t not in ALL_TASK_NAMES]
+    if not tasks or unknown:
+        raise ValueError(f"unknown task names {unknown}; valid choices: {sorted(ALL_TASK_NAMES)}" if unknown
+                         else "the task list is empty")
+    return tasks
+
+
 def is_parkour(name: str | Sequence[str]) -> bool:
     """Whether ``make_env(name)`` builds a Parkour env (a setting, a terrain name or a list of terrain names)."""
     if isinstance(name, str):
@@ -101,21 +119,11 @@ def make_env(
 
         return make_parkour_env(name, num_envs, device, **overrides)
     if isinstance(name, str):
-        if name in METAWORLD_SETS:
-            benchmark, rand = METAWORLD_SETS[name]
-            overrides.setdefault("rand", rand)
-            tasks = list(benchmark_tasks(benchmark))
-        elif name in ALL_TASK_NAMES:
-            tasks = [name]
-        else:
+        if name not in METAWORLD_SETS and name not in ALL_TASK_NAMES:
             raise ValueError(f"unknown env name {name!r}; valid choices: {setting_names()} or a list of task names")
-    else:
-        tasks = list(name)
-        if not tasks:
-            raise ValueError("the task list is empty")
-        unknown = [t for t in tasks if t not in ALL_TASK_NAMES]
-        if unknown:
-            raise ValueError(f"unknown task names {unknown}; valid choices: {sorted(ALL_TASK_NAMES)}")
+        if name in METAWORLD_SETS:
+            overrides.setdefault("rand", METAWORLD_SETS[name][1])
+    tasks = metaworld_tasks(name)
     if num_envs is None:
         counts = [1] * len(tasks)
     elif _positive_int(num_envs):
