@@ -20,9 +20,11 @@ from torchrl.data import Bounded
 from cpu_runs import train_on_cpu
 from envs_for_tests import SyntheticMTEnv
 from mtbench.evaluation import EvalArgumentError, evaluate, main, parse_args, run_episodes
-from mtbench.evaluation.run import check_task_slots, video_schedule
-from mtbench.evaluation.policy import eval_env_config, read_checkpoint
+from mtbench.envs.metaworld import task_class
+from mtbench.evaluation.policy import eval_env_config, load_policy, make_eval_env, read_checkpoint
 from mtbench.evaluation.render import BACKGROUND, tile
+from mtbench.evaluation.run import video_schedule
+from mtbench.evaluation.task_slots import TaskSlots, task_slots
 from mtbench.evaluation.video import contact_sheet, read_video, write_video
 from mtbench.logging import iter_messages, read_scalars
 from mtbench.trainer.checkpoint import CHECKPOINT_VERSION, save_checkpoint
@@ -385,30 +387,58 @@ def test_bad_checkpoints_and_sizes_are_refused(checkpoint: Path, tmp_path: Path,
     assert not (tmp_path / "x").exists()
 
 
-def test_env_name_must_keep_a_metaworld_policys_task_slots(checkpoint: Path, tmp_path: Path) -> None:
-    """The one-hot slots of a Meta-World policy are its run's tasks in their order: the same tasks reordered (or
-    others) would give every task another one's slot, so they are refused with the valid choices; the same list, or
-    a setting with the same tasks, is evaluated."""
-    reordered = "env.name=[drawer_close,reach,button_press_topdown]"
+def test_task_slots_map_the_env_tasks_onto_the_policys_slots() -> None:
+    """Known answer: an env of [drawer_close, reach] (its own ids 0, 1 and a 2-wide one-hot) for a policy trained on
+    [reach, drawer_close, button_press_topdown] -> slots 1 and 0 of a 3-wide one-hot; the state is untouched."""
+    slots = task_slots(["reach", "drawer_close", "button_press_topdown"], ["drawer_close", "reach"])
+    assert slots == TaskSlots(("reach", "drawer_close", "button_press_topdown"), (1, 0))
+    state = torch.arange(6.0).reshape(3, 2)
+    env_task = torch.tensor([0, 1, 0])
+    obs = torch.cat([state, torch.nn.functional.one_hot(env_task, 2).float()], -1)
+    out, slot = slots.policy_input(obs, env_task)
+    assert slot.tolist() == [1, 0, 1]
+    assert torch.equal(out, torch.tensor([[0.0, 1, 0, 1, 0], [2, 3, 1, 0, 0], [4, 5, 0, 1, 0]]))
+    assert slots.descriptions[2] == task_class("button_press_topdown").description
+    # the same tasks in the same order, and Parkour (21 canonical slots for any terrains): nothing to map
+    assert task_slots("mt10_rand", "mt10") is None and task_slots("mt50", "mt50_rand") is None
+    assert task_slots("parkour_easy", ["flat"]) is None
+    assert task_slots("mt10_rand", "pick_place").slots == (5,)  # MT10's task-id order
     with pytest.raises(EvalArgumentError, match=re.escape(
-            "env.name=['drawer_close', 'reach', 'button_press_topdown'] has the tasks ['drawer_close', 'reach', "
-            "'button_press_topdown'], but this Meta-World policy's task slots (its one-hot and per-task statistics) "
-            "are the 3 tasks of env.name=['reach', 'drawer_close', 'button_press_topdown'], in their order; valid "
-            "choices: [reach,drawer_close,button_press_topdown]")):
-        evaluate(parse_args([f"checkpoint={checkpoint}", reordered, "device=cpu"]), logger="none")
-    with pytest.raises(EvalArgumentError, match=r"^env.name=mt10 has the tasks \['button_press_topdown'"):
-        evaluate(parse_args([f"checkpoint={checkpoint}", "env.name=mt10", "device=cpu"]), logger="none")
-    report = evaluate(parse_args([f"checkpoint={checkpoint}", "env.name=[reach,drawer_close,button_press_topdown]",
-                                  "device=cpu", "episodes=1", "deterministic=true", f"out={tmp_path}"]), logger="none")
-    assert report.results[0].task_names == TASKS
-    check_task_slots("mt10_rand", "mt10")  # the same tasks in the same order: fine
-    check_task_slots("mt50", "mt50_rand")
-    check_task_slots("parkour_easy", ["flat"])  # Parkour keeps its 21 canonical slots for any terrains
-    with pytest.raises(EvalArgumentError, match=r"env.name=mt50 has 50 tasks, .* the 10 tasks of env.name=mt10_rand, "
-                                                r"in their order; valid choices: mt10 or mt10_rand or \[button"):
-        check_task_slots("mt10_rand", "mt50")
+            "env.name=['reach', 'assembly'] has tasks this policy was not trained on: ['assembly']; its task slots "
+            "are the 10 tasks of env.name=mt10_rand: valid choices: mt10 or mt10_rand or a list of some of them, in "
+            "any order (button_press_topdown, door_open,")):
+        task_slots("mt10_rand", ["reach", "assembly"])
+    with pytest.raises(EvalArgumentError, match=r"^env.name=\['reach', 'reach'\] names a task twice"):
+        task_slots("mt10_rand", ["reach", "reach"])
     with pytest.raises(EvalArgumentError, match=r"^env.name=bogus: unknown Meta-World env name 'bogus'; valid "):
-        check_task_slots("mt10", "bogus")
+        task_slots("mt10", "bogus")
+
+
+def test_a_reordered_subset_of_the_run_tasks_acts_as_the_policy_in_its_own_slots(checkpoint: Path,
+                                                                                  tmp_path: Path) -> None:
+    """The policy evaluated on [button_press_topdown, reach] (env ids 0, 1) gives every world the action that the
+    run's policy gives the same state with the task's own slot (2, 0) -- the known answer of the mapping -- and
+    ``evaluate`` runs such an env end to end."""
+    state = read_checkpoint(checkpoint)
+    env = make_eval_env(state["config"]["env"] | {"name": ["button_press_topdown", "reach"]}, 4, torch.device("cpu"),
+                        seed=1)
+    try:
+        slots = task_slots(state["config"]["env"]["name"], ["button_press_topdown", "reach"])
+        policy = load_policy(state, env, torch.device("cpu"), task_slots=slots)
+        td = env.reset()
+        full = load_policy(state, make_eval_env(state["config"]["env"], 3, torch.device("cpu"), seed=1),
+                           torch.device("cpu"))
+        obs, env_task = td["observation"], td["task_id"]
+        slot = torch.tensor([2, 0])[env_task]
+        as_trained = TensorDict({"observation": torch.cat([obs[:, :-2], torch.nn.functional.one_hot(slot, 3).float()],
+                                                          -1), "task_id": slot}, batch_size=[4])
+        assert env_task.tolist() == [0, 0, 1, 1]
+        assert torch.equal(policy(td, deterministic=True), full(as_trained, deterministic=True))
+    finally:
+        env.close()
+    report = evaluate(parse_args([f"checkpoint={checkpoint}", "env.name=[button_press_topdown,reach]", "device=cpu",
+                                  "episodes=1", "deterministic=true", f"out={tmp_path}"]), logger="none")
+    assert report.results[0].task_names == ["button_press_topdown", "reach"] and report.results[0].episodes == [1, 1]
 
 
 def test_passes_count_only_tasks_with_worlds() -> None:

@@ -19,6 +19,7 @@ from ..trainer.checkpoint import load_checkpoint
 from ..trainer.trainer import make_env_from_cfg
 from ..transforms import PerTaskObservationNorm
 from .args import EvalArgumentError
+from .task_slots import TaskSlots
 
 ACTOR_PREFIX = "actor_network_params."
 
@@ -79,10 +80,14 @@ def make_eval_env(config: Mapping[str, Any], num_envs: int, device: torch.device
     return env
 
 
-def normalized_input(td: TensorDictBase, obs_norm: PerTaskObservationNorm | None) -> TensorDict:
+def normalized_input(td: TensorDictBase, obs_norm: PerTaskObservationNorm | None,
+                     task_slots: TaskSlots | None = None) -> TensorDict:
     """A new tensordict with ``td``'s ``observation`` (normalised by the frozen ``obs_norm``, if any) and
-    ``task_id``: the input of an evaluated network; ``td`` is not modified."""
+    ``task_id``: the input of an evaluated network; with ``task_slots`` (an env of some of the run's Meta-World
+    tasks) the task ids and one-hots of the policy's slots. ``td`` is not modified."""
     obs, task_id = td.get("observation"), td.get("task_id")
+    if task_slots is not None:
+        obs, task_id = task_slots.policy_input(obs, task_id)
     if obs_norm is not None:
         obs = obs_norm.normalize(obs, task_id)  # frozen: no statistics update
     return TensorDict({"observation": obs, "task_id": task_id}, batch_size=td.batch_size, device=td.device)
@@ -98,10 +103,12 @@ class EvalPolicy(nn.Module):
     """
 
     def __init__(self, actor: nn.Module, obs_norm: PerTaskObservationNorm | None,
-                 action_low: torch.Tensor | float = -1.0, action_high: torch.Tensor | float = 1.0) -> None:
+                 action_low: torch.Tensor | float = -1.0, action_high: torch.Tensor | float = 1.0,
+                 task_slots: TaskSlots | None = None) -> None:
         super().__init__()
         self.actor = actor
         self.obs_norm = obs_norm
+        self.task_slots = task_slots
         self.register_buffer("action_low", torch.as_tensor(action_low, dtype=torch.float32))
         self.register_buffer("action_high", torch.as_tensor(action_high, dtype=torch.float32))
         if obs_norm is not None:
@@ -115,7 +122,7 @@ class EvalPolicy(nn.Module):
 
     @torch.no_grad()
     def forward(self, td: TensorDictBase, deterministic: bool = False) -> torch.Tensor:
-        inp = normalized_input(td, self.obs_norm)
+        inp = normalized_input(td, self.obs_norm, self.task_slots)
         kind = InteractionType.DETERMINISTIC if deterministic else InteractionType.RANDOM
         with set_interaction_type(kind):
             action = self.actor(inp).get("action")
@@ -128,21 +135,32 @@ def _non_persistent_buffers(module: nn.Module) -> list[str]:
             for name in getattr(sub, "_non_persistent_buffers_set", ())]
 
 
-def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> nn.Module:
+def policy_task_sizes(env: Any, task_slots: TaskSlots | None) -> tuple[int, int, list[str] | None]:
+    """``(num_tasks, obs_dim, task_descriptions)`` of the policy that acts in ``env``: the env's own, or with
+    ``task_slots`` those of the run's task set (its one-hot width and descriptions)."""
+    num_tasks = int(env.num_tasks)
+    obs_dim = int(env.observation_spec["observation"].shape[-1])
+    descriptions = getattr(env, "task_descriptions", None)
+    if task_slots is None:
+        return num_tasks, obs_dim, list(descriptions) if descriptions is not None else None
+    return task_slots.num_slots, obs_dim - num_tasks + task_slots.num_slots, task_slots.descriptions
+
+
+def load_policy(state: Mapping[str, Any], env: Any, device: torch.device,
+                task_slots: TaskSlots | None = None) -> nn.Module:
     """Actor (``make_actor`` with the run's arch) and observation normaliser of a checkpoint, for ``env``; for a
-    ``loss=pqn`` checkpoint the Q network's greedy / epsilon-greedy policy (:mod:`~mtbench.evaluation.q_policy`)."""
+    ``loss=pqn`` checkpoint the Q network's greedy / epsilon-greedy policy (:mod:`~mtbench.evaluation.q_policy`).
+    ``task_slots``: ``env`` has some of the run's Meta-World tasks (:mod:`~mtbench.evaluation.task_slots`)."""
     cfg = OmegaConf.create(state["config"])
     if (cfg.get("loss") or {}).get("name") == "pqn":
         from .q_policy import load_q_policy
 
-        return load_q_policy(state, env, device)
-    num_tasks = int(env.num_tasks)
-    obs_dim = int(env.observation_spec["observation"].shape[-1])
+        return load_q_policy(state, env, device, task_slots)
+    num_tasks, obs_dim, descriptions = policy_task_sizes(env, task_slots)
     action_dim = int(env.action_spec.shape[-1])
-    descriptions = getattr(env, "task_descriptions", None)
     actor = make_actor(
         cfg.get("arch"), obs_dim=obs_dim, action_dim=action_dim, num_tasks=num_tasks,
-        task_descriptions=list(descriptions) if descriptions is not None else None, device=device,
+        task_descriptions=descriptions, device=device,
     )
     weights = {k[len(ACTOR_PREFIX):]: v for k, v in state["loss"].items() if k.startswith(ACTOR_PREFIX)}
     # TorchRL's loss modules keep every buffer of their networks, also the non-persistent ones (e.g. MOORE's task
@@ -170,7 +188,7 @@ def load_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> nn.
         low, high = low.reshape(-1, action_dim)[0], high.reshape(-1, action_dim)[0]
     else:
         low, high = -1.0, 1.0
-    return EvalPolicy(actor, obs_norm, low, high).to(device)
+    return EvalPolicy(actor, obs_norm, low, high, task_slots).to(device)
 
 
 __all__ = ["ACTOR_PREFIX", "EvalPolicy", "checkpoint_num_tasks", "eval_env_config", "load_policy",

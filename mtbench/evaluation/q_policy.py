@@ -15,7 +15,8 @@ from ..modules.q_network import make_q_network
 from ..trainer.actor_critic import resolve_arch
 from ..transforms import PerTaskObservationNorm
 from .args import EvalArgumentError
-from .policy import normalized_input
+from .policy import normalized_input, policy_task_sizes
+from .task_slots import TaskSlots
 
 Q_PREFIX = "value_network_params."
 
@@ -32,8 +33,9 @@ class EvalQPolicy(nn.Module):
     every call."""
 
     def __init__(self, q_network: nn.Module, obs_norm: PerTaskObservationNorm | None, bins: int, epsilon: float,
-                 values: torch.Tensor | None = None, hold_steps: int = 1) -> None:
+                 values: torch.Tensor | None = None, hold_steps: int = 1, task_slots: TaskSlots | None = None) -> None:
         super().__init__()
+        self.task_slots = task_slots
         if not (isinstance(hold_steps, int) and hold_steps >= 1):
             raise ValueError(f"hold_steps must be an integer >= 1; got {hold_steps!r}")
         self.q_network = q_network
@@ -58,7 +60,7 @@ class EvalQPolicy(nn.Module):
     @torch.no_grad()
     def forward(self, td: TensorDictBase, deterministic: bool = False) -> torch.Tensor:
         if self._greedy is None or self._calls % self.hold_steps == 0:
-            inp = normalized_input(td, self.obs_norm)
+            inp = normalized_input(td, self.obs_norm, self.task_slots)
             self._greedy = self.q_network(inp).get("action_value").argmax(-1)
         self._calls += 1
         action = self._greedy
@@ -71,7 +73,8 @@ class EvalQPolicy(nn.Module):
         return self.values.expand(*action.shape, self.bins).gather(-1, action.unsqueeze(-1)).squeeze(-1)
 
 
-def load_q_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> EvalQPolicy:
+def load_q_policy(state: Mapping[str, Any], env: Any, device: torch.device,
+                  task_slots: TaskSlots | None = None) -> EvalQPolicy:
     """Q network (``make_q_network`` with the run's arch, critic role) and observation normaliser of a ``loss=pqn``
     checkpoint, for ``env`` (the run's env config: continuous actions unless ``env.overrides.actions=discrete``)."""
     cfg = OmegaConf.create(state["config"])
@@ -85,12 +88,11 @@ def load_q_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> E
     elif not isinstance(spec, Bounded):
         raise EvalArgumentError(f"a PQN checkpoint needs an env with a Bounded (continuous) or Categorical action "
                                 f"spec; got {type(spec).__name__}")
-    num_tasks = int(env.num_tasks)
-    descriptions = getattr(env, "task_descriptions", None)
+    num_tasks, obs_dim, descriptions = policy_task_sizes(env, task_slots)
     name, kwargs = resolve_arch(cfg.get("arch"), "critic")
     q_network = make_q_network(
-        name, obs_dim=int(env.observation_spec["observation"].shape[-1]), action_dim=int(spec.shape[-1]), bins=bins,
-        num_tasks=num_tasks, task_descriptions=list(descriptions) if descriptions is not None else None, **kwargs,
+        name, obs_dim=obs_dim, action_dim=int(spec.shape[-1]), bins=bins, num_tasks=num_tasks,
+        task_descriptions=descriptions, **kwargs,
     ).to(device)
     weights = {k[len(Q_PREFIX):]: v for k, v in state["loss"].items() if k.startswith(Q_PREFIX)}
     # the loss keeps every buffer of the network, also the non-persistent ones (e.g. MOORE's task one-hots) that
@@ -114,7 +116,7 @@ def load_q_policy(state: Mapping[str, Any], env: Any, device: torch.device) -> E
         low, high = spec.low.reshape(-1, action_dim)[0, :, None], spec.high.reshape(-1, action_dim)[0, :, None]
         values = low + (high - low) * bin_values(bins, 0.0, 1.0).to(low)
     hold_steps = int(cfg.loss.get("hold_period") or cfg.loss.horizon) if cfg.loss.get("hold_observation", False) else 1
-    policy = EvalQPolicy(q_network, obs_norm, bins, float(cfg.loss.end_epsilon), values, hold_steps)
+    policy = EvalQPolicy(q_network, obs_norm, bins, float(cfg.loss.end_epsilon), values, hold_steps, task_slots)
     return policy.to(device)
 
 

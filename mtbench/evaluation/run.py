@@ -13,12 +13,12 @@ from typing import Any, Callable, Sequence
 import torch
 from omegaconf import DictConfig, OmegaConf
 
-from ..envs import METAWORLD_SETS, is_parkour, metaworld_tasks
 from ..trainer.metrics import END_PREFIX
 from .args import EvalArgs, EvalArgumentError, parse_args
 from .episodes import EvalResult, fewest_worlds, passes_needed, run_episodes, worlds_per_task
 from .policy import EvalPolicy, checkpoint_num_tasks, load_policy, make_eval_env, read_checkpoint
 from .report import report_tables, write_reports
+from .task_slots import task_slots
 from .video import VideoRecorder, contact_sheet, write_png, write_video
 
 DEFAULT_VIDEO_FRAMES = 150
@@ -85,33 +85,6 @@ def _log(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
 
-def check_task_slots(trained_on: Any, name: Any) -> None:
-    """A Meta-World policy's one-hot slots and per-task statistics are its run's tasks in their order: ``env.name``
-    may name another setting only if it has the same tasks in the same order (``mt10`` for an ``mt10_rand`` run);
-    anything else would feed every task another task's slot. Parkour keeps its 21 canonical slots for any terrains."""
-    def plain(value: Any) -> Any:
-        return list(value) if OmegaConf.is_list(value) else value
-
-    trained_on, name = plain(trained_on), plain(name)
-    if is_parkour(trained_on):
-        return
-    try:
-        tasks = metaworld_tasks(name)
-    except ValueError as err:
-        raise EvalArgumentError(f"env.name={name}: {err}") from None
-    trained_tasks = metaworld_tasks(trained_on)
-    if tasks != trained_tasks:
-        def shown(names: list[str]) -> str:
-            return f"the tasks {names}" if len(names) <= 10 else f"{len(names)} tasks"
-
-        same = [s for s in sorted(METAWORLD_SETS) if metaworld_tasks(s) == trained_tasks]
-        listed = f"[{','.join(trained_tasks)}]" if len(trained_tasks) <= 10 else "the run's list of tasks"
-        raise EvalArgumentError(
-            f"env.name={name} has {shown(tasks)}, but this Meta-World policy's task slots (its one-hot and per-task "
-            f"statistics) are the {len(trained_tasks)} tasks of env.name={trained_on}, in their order; valid "
-            f"choices: {' or '.join(same + [listed])}")
-
-
 def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None = None,
              logger: str = "mcap") -> EvalReport:
     """Evaluate the checkpoint of ``args`` (see :class:`~mtbench.evaluation.args.EvalArgs`); writes
@@ -124,13 +97,14 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
     if cfg.get("torch_threads"):
         torch.set_num_threads(int(cfg.torch_threads))
     num_tasks = checkpoint_num_tasks(state)
+    slots = None
     if args.env_overrides:
         trained_on = cfg.env.name
         cfg.env = with_env_overrides(cfg.env, args.env_overrides)
         if "env.name" in {o.split("=", 1)[0] for o in args.env_overrides}:  # the tasks of the new env
             name = cfg.env.name
-            check_task_slots(trained_on, name)
-            num_tasks = len(name) if OmegaConf.is_list(name) else None
+            slots = task_slots(trained_on, name)  # a Meta-World subset: the env's tasks -> the policy's slots
+            num_tasks = len(slots.slots) if slots is not None else len(name) if OmegaConf.is_list(name) else None
     num_envs = args.num_envs
     if num_envs is None:
         if num_tasks is None:
@@ -147,7 +121,7 @@ def evaluate(args: EvalArgs, *, policy_hook: Callable[[EvalPolicy], None] | None
     t0 = time.perf_counter()
     env = make_eval_env(cfg.env, num_envs, device, seed)
     try:
-        policy = load_policy(state, env, device)
+        policy = load_policy(state, env, device, task_slots=slots)
         if policy_hook is not None:
             policy_hook(policy)
         steps = int(env.max_episode_steps)
