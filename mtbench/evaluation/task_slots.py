@@ -27,6 +27,9 @@ class TaskSlots:
 
     trained_tasks: tuple[str, ...]
     slots: tuple[int, ...]
+    #: the slot table per device, made once (no host-to-device copy per env step)
+    _tables: dict[torch.device, torch.Tensor] = dataclasses.field(default_factory=dict, init=False, repr=False,
+                                                                   compare=False)
 
     @property
     def num_slots(self) -> int:
@@ -40,7 +43,9 @@ class TaskSlots:
     def policy_input(self, obs: torch.Tensor, task_id: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """The env's ``observation`` (state, then its own one-hot of ``len(slots)``) and ``task_id`` as the policy
         saw them in training: the one-hot and the id of the task's slot."""
-        table = torch.tensor(self.slots, device=task_id.device)
+        table = self._tables.get(task_id.device)
+        if table is None:
+            table = self._tables[task_id.device] = torch.tensor(self.slots, device=task_id.device)
         slot = table[task_id]
         one_hot = torch.nn.functional.one_hot(slot, self.num_slots).to(obs.dtype)
         return torch.cat([obs[..., : obs.shape[-1] - len(self.slots)], one_hot], dim=-1), slot

@@ -37,16 +37,12 @@ class StopRequest:
 
     def __enter__(self) -> StopRequest:
         if threading.current_thread() is threading.main_thread():
-            for sig in self._signals():
+            signals = [signal.SIGINT, signal.SIGTERM]
+            if ITERATION_END_SIGNAL is not None:
+                signals.append(ITERATION_END_SIGNAL)
+            for sig in signals:
                 self._previous[sig] = signal.signal(sig, self._handle)
         return self
-
-    @staticmethod
-    def _signals() -> list[int]:
-        signals = [signal.SIGINT, signal.SIGTERM]
-        if ITERATION_END_SIGNAL is not None:
-            signals.append(ITERATION_END_SIGNAL)
-        return signals
 
     def rearm(self) -> list[str]:
         """Install the handlers again and unblock their signals in the main thread; returns what was found changed
